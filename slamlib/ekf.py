@@ -1,0 +1,718 @@
+"""The course's filters: map-based EKF localisation and EKF SLAM, written to scale.
+
+Two filters with one interface (chapters 03, 04 and 05):
+
+- :class:`EKFLocalization` (chapter 03): the map of landmarks is known exactly;
+  the state is the robot's pose ``[x, y, theta]`` only.
+- :class:`EKFSLAM` (chapters 04 and 05): the landmarks are unknown; each new
+  marker id is appended to the state ``[x, y, theta, x_F1, y_F1, ...]`` with
+  the inverse observation model, and re-observations correct pose and map.
+
+Both run the same cycle::
+
+    f.predict(u, dt)           # u = [V_R, V_L] (m/s), dt (s)
+    report = f.update(ids, z)  # ids (k,), z (k, 2) = [range, bearing] rows
+
+and both share one :meth:`update` (the *semantics*: association by marker id,
+the chi-square gate, the order of fusion and augmentation). Only the linear
+algebra lives in four small methods (``_predict_cov``, ``_innovation_covs``,
+``_fuse`` and ``_augment_cov``). This module implements them using the
+structure of the problem; :mod:`slamlib.ekf_dense` overrides them with the
+dense textbook formulas (full ``F``, ``H`` and ``G`` matrices) so that the two
+can be compared number for number (``tests/test_ekf.py``) and timed side by
+side (``bench/bench_ekf.py``).
+
+What an update does, in order (report V.C, corrected)
+-----------------------------------------------------
+1. **Association.** A reading is matched to the landmark with its marker id.
+   In :class:`EKFSLAM` an id that is not in the state yet is *new*; in
+   :class:`EKFLocalization` an id that is not in the map is *unknown* and
+   rejected (never an exception). An id that is new and read more than once in
+   the same call is added once, from its first reading; its later readings
+   are reported with ``status == "duplicate"``, ``new`` False, ``accepted``
+   False and ``d2`` NaN (they are not used: fusing them against a landmark
+   that was initialised from the same image would count that image twice).
+2. **Gating, each reading on its own, against the prior.** For each reading
+   of an already-mapped id, with the predicted observation ``h`` and its
+   Jacobian ``H_i`` at the prior (predicted) state::
+
+       y_i  = z_i - h(x)              (bearing wrapped to [-pi, pi))
+       S_i  = H_i P H_i^T + R_i
+       d2_i = y_i^T S_i^-1 y_i        (squared Mahalanobis distance)
+
+   and the reading is accepted when ``d2_i < chi2.ppf(gate, 2)``, which for
+   two degrees of freedom is ``-2 ln(1 - gate)`` (5.99 for gate = 0.95). The
+   report writes the distance with ``y_k - h`` inside, i.e. ``z - 2h``: the
+   innovation ``y`` itself is meant. ``gate=None`` accepts every reading.
+3. **One joint update** with all the accepted readings stacked
+   (``H`` of 2m rows, ``R`` block-diagonal)::
+
+       S = H P H^T + R,   K = P H^T S^-1,   x <- x + K y,
+       P <- (I - K H) P (I - K H)^T + K R K^T     (Joseph form)
+
+   then the heading is wrapped to [-pi, pi).
+4. **Augmentation (EKFSLAM).** The new ids are added in the order given, from
+   the *updated* pose, with the inverse observation ``m = g(x_B, z)`` and its
+   Jacobians ``J1 = dg/dx_B``, ``J2 = dg/dz`` (chapter 04)::
+
+       P_LL = J1 P_rr J1^T + J2 R J2^T,   P_Lx = J1 P_r,:
+
+   where ``P_r,:`` are the robot's rows of the covariance (including the
+   landmarks added earlier in the same call).
+
+Cost (what "fast" means here, n = 3 + 2 N state entries)
+--------------------------------------------------------
+- ``predict`` touches only the robot's rows and columns, O(n)::
+
+      P_rr <- A P_rr A^T + W Q W^T,   P_rm <- A P_rm,   P_mr = P_rm^T
+
+- ``update`` with m accepted readings forms ``P H^T`` from the columns of the
+  robot and of the observed landmarks only (n x 2m), ``S`` (2m x 2m) and ``K``,
+  and changes ``P`` with one symmetric low-rank correction, O(n^2 m). It never
+  builds ``H`` (2m x n) nor an n x n identity, and never multiplies two
+  n x n matrices. The Joseph form above expands, with ``G = P H^T``, into::
+
+      P <- P - E K^T - K E^T,    E = G - K S / 2
+
+  which is exactly symmetric when computed as ``M = E K^T; P -= M + M^T``.
+- a new landmark costs O(n): the state lives in preallocated arrays whose
+  capacity doubles when it runs out, so adding N landmarks one by one costs
+  O(N) reallocations of amortised O(n^2) in total, not one per landmark.
+
+``f.x`` and ``f.P`` return **copies** of the active part of the state (a
+snapshot you can store in a list without it changing under you). Copying ``P``
+is one pass over it; inside a loop over many steps, keep what you need
+(``f.pose``, ``f.pose_cov``, ``f.landmark(id)``), which are small copies.
+
+Bad input (wrong shapes, NaN or inf, a negative range, a covariance that is
+not positive definite, a non-integer id) raises a ``ValueError`` that names
+the argument, *before* the filter changes: after the error ``x`` and ``P``
+are exactly what they were.
+"""
+
+from __future__ import annotations
+
+import numbers
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+import numpy as np
+from scipy.linalg import cho_factor, cho_solve
+
+from .models import (
+    KOBUKI_WHEEL_BASE,
+    inverse_observation_jacobians,
+    inverse_observe,
+    motion_jacobians,
+    motion_model,
+    wrap_angle,
+)
+from .validate import as_covariance, as_finite_scalar, as_positive, as_vector
+
+__all__ = ["EKFLocalization", "EKFSLAM", "UpdateReport", "gate_threshold", "predict_readings"]
+
+#: The statuses a reading can get from :meth:`EKFSLAM.update`.
+STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
+
+
+# --------------------------------------------------------------------------- helpers
+def gate_threshold(gate: float | None, dof: int = 2) -> float:
+    """The chi-square gate ``chi2.ppf(gate, dof)`` (chapter 05); ``inf`` for ``gate=None``.
+
+    For ``dof = 2`` the chi-square CDF is ``1 - exp(-d2/2)``, so the threshold
+    has the closed form ``-2 ln(1 - gate)``: 5.991 for ``gate = 0.95``.
+    """
+    if gate is None:
+        return float("inf")
+    g = _check_gate(gate)
+    if dof == 2:
+        return float(-2.0 * np.log1p(-g))
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(g, dof))
+
+
+def _check_gate(gate):
+    if gate is None:
+        return None
+    g = as_finite_scalar("gate", gate)
+    if not 0.0 < g < 1.0:
+        raise ValueError(f"gate: expected a probability in (0, 1) or None, got {g}")
+    return g
+
+
+def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """Predicted readings of several landmarks and their Jacobians, vectorised.
+
+    The same formulas as :func:`slamlib.models.observe` and
+    :func:`slamlib.models.observation_jacobians` (chapter 03), for k landmarks
+    at once (the tests check that they agree). A landmark on top of the
+    robot has no bearing: its rows come back NaN.
+
+    Parameters
+    ----------
+    pose : numpy.ndarray, shape (3,)
+    landmarks : numpy.ndarray, shape (k, 2)
+
+    Returns
+    -------
+    (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
+    """
+    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    dx = L[:, 0] - pose[0]
+    dy = L[:, 1] - pose[1]
+    q = dx * dx + dy * dy
+    with np.errstate(divide="ignore", invalid="ignore"):
+        r = np.sqrt(q)
+        q = np.where(q > 0.0, q, np.nan)
+        r = np.where(r > 0.0, r, np.nan)
+        h = np.stack([r, np.where(np.isfinite(q), 0.0, np.nan)], axis=1)
+        ok = np.isfinite(q)
+        h[ok, 1] = wrap_angle(np.arctan2(dy[ok], dx[ok]) - pose[2])
+        Hl = np.empty((L.shape[0], 2, 2))
+        Hl[:, 0, 0] = dx / r
+        Hl[:, 0, 1] = dy / r
+        Hl[:, 1, 0] = -dy / q
+        Hl[:, 1, 1] = dx / q
+    Hp = np.empty((L.shape[0], 2, 3))
+    Hp[:, :, :2] = -Hl
+    Hp[:, 0, 2] = 0.0
+    Hp[:, 1, 2] = -1.0
+    return h, Hp, Hl
+
+
+# --------------------------------------------------------------------------- the report
+@dataclass(frozen=True)
+class UpdateReport:
+    """What :meth:`update` did with each of the k readings of one call.
+
+    Attributes
+    ----------
+    ids : numpy.ndarray of int, shape (k,)
+        The marker ids, as given.
+    z : numpy.ndarray, shape (k, 2)
+        The readings ``[range, bearing]``, as given.
+    status : tuple of str
+        Per reading: ``"accepted"`` (fused), ``"rejected"`` (failed the gate),
+        ``"new"`` (added to the map), ``"duplicate"`` (a second reading of an id
+        first seen in this call: not used), ``"unknown"`` (EKFLocalization: id
+        not in the map), ``"degenerate"`` (the landmark's estimate lies on the
+        robot, the bearing is undefined: not used).
+    accepted : numpy.ndarray of bool, shape (k,)
+        True for the readings fused in the joint update.
+    new : numpy.ndarray of bool, shape (k,)
+        True for the readings that added a landmark.
+    d2 : numpy.ndarray, shape (k,)
+        Squared Mahalanobis distance ``y^T S^-1 y`` of each gated reading
+        against the prior; NaN for new, duplicate, unknown and degenerate ones.
+    innovation : numpy.ndarray, shape (k, 2)
+        ``y = z - h(x)`` at the prior, bearing wrapped; NaN where not gated.
+    predicted : numpy.ndarray, shape (k, 2)
+        ``h(x)``, the predicted reading at the prior; NaN where not gated.
+    S : numpy.ndarray, shape (k, 2, 2)
+        Each gated reading's innovation covariance ``H_i P H_i^T + R_i``.
+    threshold : float
+        The gate ``chi2.ppf(gate, 2)``; ``inf`` when gating is off.
+    gate : float or None
+        The gate probability.
+    joint_nis : float
+        ``y^T S^-1 y`` of the joint update (2m degrees of freedom, m = number
+        accepted), NaN when nothing was fused: the NIS of chapter 03.
+    """
+
+    ids: np.ndarray
+    z: np.ndarray
+    status: tuple
+    accepted: np.ndarray
+    new: np.ndarray
+    d2: np.ndarray
+    innovation: np.ndarray
+    predicted: np.ndarray
+    S: np.ndarray
+    threshold: float
+    gate: float | None
+    joint_nis: float
+
+    def __len__(self) -> int:
+        return len(self.ids)
+
+    @property
+    def n_accepted(self) -> int:
+        """Number of readings fused."""
+        return int(np.count_nonzero(self.accepted))
+
+    @property
+    def rejected(self) -> np.ndarray:
+        """True for the readings that failed the gate."""
+        return np.array([s == "rejected" for s in self.status], dtype=bool)
+
+    def table(self) -> str:
+        """A plain-text table of the readings, one line each (for notebooks)."""
+        lines = [f"gate {self.gate}  threshold {self.threshold:.3f}",
+                 f"{'id':>6} {'range':>8} {'bearing':>8} {'d2':>9}  status"]
+        for i in range(len(self)):
+            d2 = "" if np.isnan(self.d2[i]) else f"{self.d2[i]:.3f}"
+            lines.append(f"{self.ids[i]:>6d} {self.z[i, 0]:>8.3f} {self.z[i, 1]:>8.3f} "
+                         f"{d2:>9}  {self.status[i]}")
+        return "\n".join(lines)
+
+    def __str__(self) -> str:
+        return self.table()
+
+
+# --------------------------------------------------------------------------- input checks
+def _as_ids(ids) -> np.ndarray:
+    try:
+        a = np.asarray(ids)
+    except (TypeError, ValueError) as exc:  # pragma: no cover - ragged input
+        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got {ids!r}") from exc
+    if a.ndim == 0:
+        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got the scalar {ids!r}")
+    if a.ndim != 1:
+        raise ValueError(f"ids: expected shape (k,), got {a.shape}")
+    if a.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer)
+                               or np.issubdtype(a.dtype, np.floating)):
+        raise ValueError(f"ids: expected integer marker ids, got dtype {a.dtype}")
+    if np.issubdtype(a.dtype, np.floating):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"ids: expected finite integer marker ids, got {a} (NaN or inf)")
+        if not np.all(a == np.round(a)):
+            raise ValueError(f"ids: expected integer marker ids, got {a}")
+    return a.astype(np.int64)
+
+
+def _as_readings(z, k: int) -> np.ndarray:
+    try:
+        a = np.asarray(z, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
+    if k == 0 and a.size == 0:
+        return np.zeros((0, 2))
+    if a.ndim == 1 and a.shape == (2,) and k == 1:
+        a = a.reshape(1, 2)
+    if a.shape != (k, 2):
+        raise ValueError(f"z: expected shape ({k}, 2) for {k} ids, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        bad = int(np.argwhere(~np.isfinite(a))[0, 0])
+        raise ValueError(f"z: expected finite readings, row {bad} is {a[bad]} (NaN or inf)")
+    if np.any(a[:, 0] < 0.0):
+        bad = int(np.argmax(a[:, 0] < 0.0))
+        raise ValueError(f"z: expected non-negative ranges z[:, 0], row {bad} has range "
+                         f"{a[bad, 0]}")
+    return a
+
+
+def _as_reading_noise(R, default: np.ndarray, k: int) -> np.ndarray:
+    if R is None:
+        return np.broadcast_to(default, (k, 2, 2))
+    a = np.asarray(R, dtype=float) if not isinstance(R, np.ndarray) else R
+    if a.ndim == 2:
+        one = as_covariance("R", a, 2)
+        return np.broadcast_to(one, (k, 2, 2))
+    if a.ndim != 3 or a.shape != (k, 2, 2):
+        raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
+                         f"got {np.shape(R)}")
+    return np.stack([as_covariance(f"R[{i}]", a[i], 2) for i in range(k)]) if k else a
+
+
+def _as_landmark_map(landmarks) -> dict[int, np.ndarray]:
+    if not isinstance(landmarks, Mapping):
+        raise ValueError("landmarks: expected a dict {marker id: (x, y)}, got "
+                         f"{type(landmarks).__name__}")
+    out: dict[int, np.ndarray] = {}
+    for key, pos in landmarks.items():
+        if isinstance(key, (bool, np.bool_)) or not isinstance(key, (numbers.Integral,
+                                                                       np.integer)):
+            raise ValueError(f"landmarks: expected integer marker ids as keys, got {key!r}")
+        k = int(key)
+        if k in out:
+            raise ValueError(f"landmarks: duplicate marker id {k}")
+        out[k] = as_vector(f"landmarks[{k}]", pos, 2).copy()
+    return out
+
+
+# --------------------------------------------------------------------------- the shared filter
+class _EKFBase:
+    """The semantics shared by every filter of the course; subclasses set the algebra."""
+
+    _can_add = False  # EKFSLAM adds unknown ids to the state
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 0):
+        x0 = as_vector("x0", x0, 3).copy()
+        P0 = as_covariance("P0", P0, 3)
+        self.Q = as_covariance("Q", Q, 2)
+        self.R = as_covariance("R", R, 2)
+        self.wheel_base = as_positive("wheel_base", wheel_base)
+        self.gate = _check_gate(gate)
+        self.threshold = gate_threshold(self.gate)
+        cap = 3 + 2 * max(int(capacity), 0)
+        self._x = np.zeros(cap)
+        self._P = np.zeros((cap, cap))
+        self._n = 3
+        x0[2] = wrap_angle(x0[2])
+        self._x[:3] = x0
+        self._P[:3, :3] = P0
+        self._ids: list[int] = []
+        self._slot: dict[int, int] = {}  # marker id -> index of x_F in the state
+
+    # ------------------------------------------------------------------ read-out
+    @property
+    def x(self) -> np.ndarray:
+        """The full mean ``[x, y, theta, x_F1, y_F1, ...]`` (a copy), shape (n,)."""
+        return self._x[:self._n].copy()
+
+    @property
+    def P(self) -> np.ndarray:
+        """The full covariance (a copy), shape (n, n)."""
+        return self._P[:self._n, :self._n].copy()
+
+    @property
+    def pose(self) -> np.ndarray:
+        """The robot's pose ``[x, y, theta]`` (a copy)."""
+        return self._x[:3].copy()
+
+    @property
+    def pose_cov(self) -> np.ndarray:
+        """The robot's 3x3 covariance block ``P_rr`` (a copy)."""
+        return self._P[:3, :3].copy()
+
+    @property
+    def state_size(self) -> int:
+        """n, the length of the state vector."""
+        return self._n
+
+    @property
+    def capacity(self) -> int:
+        """How many state entries fit before the storage is reallocated (doubled)."""
+        return self._x.shape[0]
+
+    # ------------------------------------------------------------------ predict
+    def predict(self, u, dt: float) -> None:
+        """Prediction with the wheel speeds ``u = [V_R, V_L]`` over ``dt`` (chapter 01).
+
+        ``x_B <- f(x_B, u)``, ``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``;
+        the landmarks do not move.
+        """
+        u = as_vector("u", u, 2)
+        dt = as_finite_scalar("dt", dt)
+        if dt < 0.0:
+            raise ValueError(f"dt: expected a non-negative time step, got {dt}")
+        pose = self._x[:3]
+        A, W = motion_jacobians(pose, u, dt, self.wheel_base)
+        new_pose = motion_model(pose, u, dt, self.wheel_base)
+        self._predict_cov(A, W)
+        self._x[:3] = new_pose
+
+    # ------------------------------------------------------------------ update
+    def _lookup(self, marker_id: int):
+        """``(position, slot)`` of a landmark (slot -1: not in the state), or None."""
+        raise NotImplementedError
+
+    def update(self, ids, z, R=None) -> UpdateReport:
+        """Correct the state with the readings ``z`` of the markers ``ids`` (chapters 03-05).
+
+        Parameters
+        ----------
+        ids : array_like of int, shape (k,)
+            Marker ids, one per reading (may be empty).
+        z : array_like, shape (k, 2)
+            Readings ``[range (m, >= 0), bearing (rad)]`` in the robot frame.
+        R : array_like, shape (2, 2) or (k, 2, 2), optional
+            The readings' noise covariance, one for all or one per reading (the
+            camera's noise grows with range); the constructor's ``R`` if None.
+
+        Returns
+        -------
+        UpdateReport
+            What happened to each reading (see the module docstring for the order:
+            association, gate against the prior, one joint update, augmentation).
+
+        Raises
+        ------
+        ValueError
+            On bad input, before anything changes.
+        """
+        ids = _as_ids(ids)
+        k = ids.shape[0]
+        z = _as_readings(z, k)
+        Rk = _as_reading_noise(R, self.R, k)
+
+        status = [""] * k
+        gated, positions, slots = [], [], []
+        first_new: dict[int, int] = {}
+        for i in range(k):
+            mid = int(ids[i])
+            found = self._lookup(mid)
+            if found is not None:
+                gated.append(i)
+                positions.append(found[0])
+                slots.append(found[1])
+            elif not self._can_add:
+                status[i] = "unknown"
+            elif mid in first_new:
+                status[i] = "duplicate"
+            else:
+                first_new[mid] = i
+                status[i] = "new"
+
+        d2 = np.full(k, np.nan)
+        innov = np.full((k, 2), np.nan)
+        pred = np.full((k, 2), np.nan)
+        S_all = np.full((k, 2, 2), np.nan)
+        accepted = np.zeros(k, dtype=bool)
+        joint_nis = float("nan")
+
+        if gated:
+            g = np.array(gated)
+            slots_a = np.array(slots, dtype=np.int64)
+            h, Hp, Hl = predict_readings(self._x[:3], np.array(positions))
+            ok = np.isfinite(h[:, 1])
+            for i in g[~ok]:
+                status[i] = "degenerate"
+            g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
+        if gated and g.size:
+            y = z[g] - h
+            y[:, 1] = wrap_angle(y[:, 1])
+            Rg = np.ascontiguousarray(Rk[g])
+            S = self._innovation_covs(slots_a, Hp, Hl, Rg)
+            d2g = np.einsum("ki,ki->k", y, np.linalg.solve(S, y[:, :, None])[:, :, 0])
+            acc = np.ones(g.size, dtype=bool) if self.gate is None else d2g < self.threshold
+            d2[g], innov[g], pred[g], S_all[g] = d2g, y, h, S
+            accepted[g[acc]] = True
+            for i, a in zip(g, acc):
+                status[i] = "accepted" if a else "rejected"
+            # -------- everything is checked: from here on the state changes
+            if np.any(acc):
+                joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
+                self._x[2] = wrap_angle(self._x[2])
+
+        new = np.zeros(k, dtype=bool)
+        for mid, i in first_new.items():
+            self._add_landmark(mid, z[i], Rk[i])
+            new[i] = True
+
+        return UpdateReport(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new,
+                            d2=d2, innovation=innov, predicted=pred, S=S_all,
+                            threshold=self.threshold, gate=self.gate, joint_nis=joint_nis)
+
+    def _add_landmark(self, marker_id: int, z: np.ndarray, R: np.ndarray) -> None:
+        """Append a landmark from the current pose and reading z (chapter 04)."""
+        pose = self._x[:3].copy()
+        m = inverse_observe(pose, z)
+        J1, J2 = inverse_observation_jacobians(pose, z)
+        n = self._n
+        self._reserve(n + 2)
+        self._augment_cov(J1, J2, R)
+        self._x[n:n + 2] = m
+        self._n = n + 2
+        self._slot[marker_id] = n
+        self._ids.append(marker_id)
+
+    def _reserve(self, size: int) -> None:
+        """Make room for ``size`` state entries, doubling the capacity when it runs out."""
+        cap = self._x.shape[0]
+        if size <= cap:
+            return
+        new_cap = max(size, 2 * cap)
+        n = self._n
+        x = np.zeros(new_cap)
+        P = np.zeros((new_cap, new_cap))
+        x[:n] = self._x[:n]
+        P[:n, :n] = self._P[:n, :n]
+        self._x, self._P = x, P
+
+    # ------------------------------------------------------------------ the structured algebra
+    def _predict_cov(self, A: np.ndarray, W: np.ndarray) -> None:
+        """``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``, ``P_mr = P_rm^T``: O(n)."""
+        P, n = self._P, self._n
+        Prr = A @ P[:3, :3] @ A.T + W @ self.Q @ W.T
+        P[:3, :3] = 0.5 * (Prr + Prr.T)
+        if n > 3:
+            P[:3, 3:n] = A @ P[:3, 3:n]
+            P[3:n, :3] = P[:3, 3:n].T
+
+    def _blocks(self, slots: np.ndarray) -> np.ndarray:
+        """State indices ``(m, c)`` of the robot and of each reading's landmark."""
+        if np.all(slots < 0):
+            return np.broadcast_to(np.arange(3), (slots.size, 3))
+        return np.column_stack([np.zeros_like(slots), np.ones_like(slots),
+                                np.full_like(slots, 2), slots, slots + 1])
+
+    def _reading_jacobians(self, slots, Hp, Hl) -> np.ndarray:
+        """Each reading's Jacobian restricted to the columns of ``_blocks``: (m, 2, c)."""
+        if np.all(slots < 0):
+            return Hp
+        return np.concatenate([Hp, Hl], axis=2)
+
+    def _innovation_covs(self, slots, Hp, Hl, R) -> np.ndarray:
+        """``S_i = H_i P H_i^T + R_i`` from the 5x5 (or 3x3) blocks each reading touches."""
+        idx = self._blocks(slots)
+        Pb = self._P[idx[:, :, None], idx[:, None, :]]
+        Hb = self._reading_jacobians(slots, Hp, Hl)
+        S = Hb @ Pb @ Hb.transpose(0, 2, 1) + R
+        return 0.5 * (S + S.transpose(0, 2, 1))
+
+    def _fuse(self, slots, Hp, Hl, y, R) -> float:
+        """One joint update with m readings, O(n^2 m); returns the joint NIS."""
+        P, n, m = self._P, self._n, slots.size
+        lm = list(dict.fromkeys(int(s) for s in slots if s >= 0))  # observed landmarks, once
+        cols = np.concatenate([np.arange(3)] + [np.array([s, s + 1]) for s in lm])
+        where = {s: 3 + 2 * j for j, s in enumerate(lm)}
+        Hc = np.zeros((2 * m, cols.size))  # H restricted to those columns
+        for j in range(m):
+            Hc[2 * j:2 * j + 2, :3] = Hp[j]
+            if slots[j] >= 0:
+                c = where[int(slots[j])]
+                Hc[2 * j:2 * j + 2, c:c + 2] = Hl[j]
+        G = P[:n, cols] @ Hc.T                       # P H^T, n x 2m
+        S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
+        S = 0.5 * (S + S.T)
+        cf = cho_factor(S, lower=True)
+        Kt = cho_solve(cf, G.T)                      # K^T = S^-1 H P, 2m x n
+        yv = y.reshape(-1)
+        self._x[:n] += Kt.T @ yv
+        E = G - 0.5 * (Kt.T @ S)                     # Joseph: P - E K^T - K E^T
+        M = E @ Kt
+        M += M.T
+        P[:n, :n] -= M
+        return float(yv @ cho_solve(cf, yv))
+
+    def _augment_cov(self, J1: np.ndarray, J2: np.ndarray, R: np.ndarray) -> None:
+        """Fill the new landmark's rows and columns (storage already reserved): O(n)."""
+        P, n = self._P, self._n
+        PLx = J1 @ P[:3, :n]
+        PLL = J1 @ P[:3, :3] @ J1.T + J2 @ R @ J2.T
+        P[n:n + 2, :n] = PLx
+        P[:n, n:n + 2] = PLx.T
+        P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
+
+
+def _block_diag(R: np.ndarray) -> np.ndarray:
+    """Block-diagonal (2m x 2m) matrix from m 2x2 blocks."""
+    m = R.shape[0]
+    out = np.zeros((2 * m, 2 * m))
+    for j in range(m):
+        out[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R[j]
+    return out
+
+
+# --------------------------------------------------------------------------- the two filters
+class EKFLocalization(_EKFBase):
+    """Map-based EKF localisation with a known map of landmarks (chapter 03).
+
+    The state is the robot's pose only; ``x`` is (3,) and ``P`` is 3x3.
+
+    Parameters
+    ----------
+    x0 : array_like, shape (3,)
+        Initial pose ``[x, y, theta]``.
+    P0 : array_like, shape (3, 3)
+        Its covariance (positive definite).
+    Q : array_like, shape (2, 2)
+        Covariance of the wheel speeds ``[V_R, V_L]`` (positive definite).
+    R : array_like, shape (2, 2)
+        Default covariance of a reading ``[range, bearing]`` (positive definite).
+    landmarks : dict {int: (2,)}
+        The known map: marker id -> position ``[x, y]`` in N.
+    wheel_base : float
+        b (m).
+    gate : float or None
+        Probability of the chi-square gate (0.95); None accepts every reading.
+
+    An id that is not in the map is rejected (``status == "unknown"``), never an
+    exception.
+    """
+
+    def __init__(self, x0, P0, Q, R, landmarks, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95):
+        lm = _as_landmark_map(landmarks)
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=0)
+        self._map = lm
+
+    @property
+    def landmarks(self) -> dict[int, np.ndarray]:
+        """The known map (a copy)."""
+        return {k: v.copy() for k, v in self._map.items()}
+
+    @property
+    def landmark_ids(self) -> list[int]:
+        """The ids of the known map (none of them is in the state)."""
+        return list(self._map)
+
+    def _lookup(self, marker_id: int):
+        p = self._map.get(marker_id)
+        return None if p is None else (p, -1)
+
+
+class EKFSLAM(_EKFBase):
+    """EKF SLAM with marker ids for association and a chi-square gate (chapters 04, 05).
+
+    The state is ``[x, y, theta, x_F1, y_F1, ...]``; a marker id seen for the
+    first time is appended with the inverse observation model.
+
+    Parameters
+    ----------
+    x0 : array_like, shape (3,)
+        Initial pose ``[x, y, theta]``; the map starts empty.
+    P0 : array_like, shape (3, 3)
+        Its covariance (positive definite; for a pose known exactly, use a tiny
+        variance such as 1e-12 rather than zero).
+    Q, R : array_like, shape (2, 2)
+        Covariances of the wheel speeds and (default) of a reading.
+    wheel_base : float
+        b (m).
+    gate : float or None
+        Probability of the chi-square gate (0.95); None accepts every reading
+        of a mapped id (chapter 05 shows why that fails with misread ids).
+    capacity : int
+        Number of landmarks to make room for at the start (the storage doubles
+        when more arrive).
+    """
+
+    _can_add = True
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 16):
+        if isinstance(capacity, (bool, np.bool_)) or not isinstance(
+                capacity, (numbers.Integral, np.integer)) or capacity < 0:
+            raise ValueError(f"capacity: expected a non-negative integer, got {capacity!r}")
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+
+    @property
+    def landmark_ids(self) -> list[int]:
+        """Marker ids in state order (a copy)."""
+        return list(self._ids)
+
+    @property
+    def n_landmarks(self) -> int:
+        """Number of landmarks in the state."""
+        return len(self._ids)
+
+    def landmark_index(self, marker_id: int) -> int:
+        """Index of ``x_F`` of that marker in the state vector (``y_F`` is the next one)."""
+        try:
+            return self._slot[int(marker_id)]
+        except KeyError:
+            raise ValueError(f"marker_id: {marker_id} is not in the map") from None
+
+    def landmark(self, marker_id: int) -> np.ndarray:
+        """Estimated position ``[x_F, y_F]`` of a marker (a copy)."""
+        i = self.landmark_index(marker_id)
+        return self._x[i:i + 2].copy()
+
+    def landmark_cov(self, marker_id: int) -> np.ndarray:
+        """The 2x2 covariance of a marker's position (a copy)."""
+        i = self.landmark_index(marker_id)
+        return self._P[i:i + 2, i:i + 2].copy()
+
+    @property
+    def landmarks(self) -> dict[int, np.ndarray]:
+        """The estimated map: marker id -> ``[x_F, y_F]`` (copies)."""
+        return {mid: self._x[s:s + 2].copy() for mid, s in self._slot.items()}
+
+    def _lookup(self, marker_id: int):
+        s = self._slot.get(marker_id)
+        return None if s is None else (self._x[s:s + 2], s)

@@ -1,0 +1,205 @@
+"""How good is an estimate? Errors, NEES, NIS and chi-square bands (chapters 03, 05, 06).
+
+- :func:`pose_error` estimate minus truth with the heading difference wrapped,
+  so that 179 deg against -179 deg is an error of -2 deg, not 358 deg.
+- :func:`mahalanobis2` ``d^T C^-1 d``, the squared Mahalanobis distance;
+  :func:`nees` (estimation error against the filter's covariance ``P``) and
+  :func:`nis` (innovation against its covariance ``S``) are the same formula
+  under the names the chapters use.
+- :func:`chi2_quantile` and :func:`chi2_band`: if the filter is consistent,
+  the NEES of a d-dimensional error is chi-square with d degrees of freedom,
+  so its average over N independent runs is chi-square with N d degrees of
+  freedom divided by N; the two-sided band of probability ``p`` is::
+
+      [chi2.ppf((1 - p)/2, N d) / N,  chi2.ppf((1 + p)/2, N d) / N]
+
+  (Bar-Shalom, Li and Kirubarajan, *Estimation with Applications to Tracking
+  and Navigation*, section 5.4).
+- :func:`ate`: absolute trajectory error, the RMSE of the positions and of the
+  (wrapped) heading. The estimate and the truth are compared in the same
+  frame N, with no alignment: the filter starts from the true (known) pose, so
+  an offset of the whole trajectory is an error and is counted as one.
+"""
+
+from __future__ import annotations
+
+from typing import NamedTuple
+
+import numpy as np
+
+from .models import wrap_angle
+from .validate import as_finite_scalar
+
+__all__ = ["pose_error", "mahalanobis2", "nees", "nis", "chi2_quantile", "chi2_band",
+           "average_nees", "ate", "ATE"]
+
+
+def _as_array(name: str, value, min_ndim: int) -> np.ndarray:
+    try:
+        a = np.asarray(value, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected an array of numbers, got {value!r}") from exc
+    if a.ndim < min_ndim:
+        raise ValueError(f"{name}: expected at least {min_ndim} dimension(s), got shape {a.shape}")
+    if not np.all(np.isfinite(a)):
+        raise ValueError(f"{name}: expected finite numbers (NaN or inf found)")
+    return a
+
+
+def pose_error(estimate, truth) -> np.ndarray:
+    """``estimate - truth`` for poses ``[x, y, theta]``, the heading difference wrapped.
+
+    Parameters
+    ----------
+    estimate, truth : array_like, shape (..., 3)
+        Poses (one, or a trajectory of them); the shapes must match.
+
+    Returns
+    -------
+    numpy.ndarray, shape (..., 3)
+        ``[dx, dy, dtheta]`` with ``dtheta`` in [-pi, pi).
+    """
+    e = _as_array("estimate", estimate, 1)
+    t = _as_array("truth", truth, 1)
+    if e.shape != t.shape or e.shape[-1] != 3:
+        raise ValueError(f"estimate, truth: expected equal shapes (..., 3), got {e.shape} "
+                         f"and {t.shape}")
+    d = e - t
+    d[..., 2] = wrap_angle(d[..., 2])
+    return d
+
+
+def mahalanobis2(d, C, name_d: str = "d", name_C: str = "C") -> np.ndarray | float:
+    """Squared Mahalanobis distance ``d^T C^-1 d`` (one or a batch).
+
+    Parameters
+    ----------
+    d : array_like, shape (..., k)
+        Deviation(s) from the mean.
+    C : array_like, shape (..., k, k)
+        Covariance(s), symmetric positive definite; broadcast against ``d``.
+
+    Returns
+    -------
+    float or numpy.ndarray, shape (...)
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match, NaN or inf, a covariance that is not
+        positive definite (naming the argument).
+    """
+    d = _as_array(name_d, d, 1)
+    C = _as_array(name_C, C, 2)
+    k = d.shape[-1]
+    if C.shape[-2:] != (k, k):
+        raise ValueError(f"{name_C}: expected shape (..., {k}, {k}) to match {name_d} of "
+                         f"shape {d.shape}, got {C.shape}")
+    try:
+        L = np.linalg.cholesky(C)
+    except np.linalg.LinAlgError as exc:
+        raise ValueError(f"{name_C}: expected positive-definite covariance(s)") from exc
+    # C = L L^T, so d^T C^-1 d = |L^-1 d|^2
+    dd = np.broadcast_to(d[..., None], np.broadcast_shapes(d.shape[:-1], C.shape[:-2]) + (k, 1))
+    Lb = np.broadcast_to(L, dd.shape[:-2] + (k, k))
+    w = np.linalg.solve(Lb, dd)[..., 0]
+    out = np.sum(w * w, axis=-1)
+    return float(out) if out.ndim == 0 else out
+
+
+def nees(error, P) -> np.ndarray | float:
+    """Normalised estimation error squared ``e^T P^-1 e`` (chapter 06).
+
+    ``error`` is estimate minus truth (use :func:`pose_error` for poses), shape
+    (..., d); ``P`` the filter's covariance, shape (..., d, d). For a
+    consistent filter its mean is d.
+    """
+    return mahalanobis2(error, P, "error", "P")
+
+
+def nis(innovation, S) -> np.ndarray | float:
+    """Normalised innovation squared ``y^T S^-1 y`` (chapter 03).
+
+    ``innovation`` is ``z - h(x)`` (bearing wrapped), shape (..., m); ``S``
+    its covariance ``H P H^T + R``, shape (..., m, m). For a consistent filter
+    it is chi-square with m degrees of freedom.
+    """
+    return mahalanobis2(innovation, S, "innovation", "S")
+
+
+def chi2_quantile(prob: float, dof: float) -> float:
+    """``chi2.ppf(prob, dof)``, the chi-square quantile (e.g. the gate of chapter 05)."""
+    from scipy.stats import chi2
+
+    p = as_finite_scalar("prob", prob)
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"prob: expected a probability in (0, 1), got {p}")
+    k = as_finite_scalar("dof", dof)
+    if k <= 0:
+        raise ValueError(f"dof: expected a positive number of degrees of freedom, got {k}")
+    return float(chi2.ppf(p, k))
+
+
+def chi2_band(dof: int, n_runs: int = 1, prob: float = 0.95) -> tuple[float, float]:
+    """Two-sided ``prob`` band of the average of ``n_runs`` chi-square(``dof``) values.
+
+    ``(chi2.ppf((1-prob)/2, n_runs*dof)/n_runs, chi2.ppf((1+prob)/2, n_runs*dof)/n_runs)``;
+    the average NEES (or NIS) of a consistent filter over ``n_runs``
+    independent runs falls inside it with probability ``prob``.
+    """
+    n = as_finite_scalar("n_runs", n_runs)
+    if n < 1 or n != int(n):
+        raise ValueError(f"n_runs: expected a positive integer, got {n_runs!r}")
+    p = as_finite_scalar("prob", prob)
+    if not 0.0 < p < 1.0:
+        raise ValueError(f"prob: expected a probability in (0, 1), got {p}")
+    k = n * as_finite_scalar("dof", dof)
+    return chi2_quantile((1.0 - p) / 2.0, k) / n, chi2_quantile((1.0 + p) / 2.0, k) / n
+
+
+def average_nees(errors, covariances) -> np.ndarray:
+    """The NEES averaged over Monte-Carlo runs, one value per time step (chapter 06).
+
+    Parameters
+    ----------
+    errors : array_like, shape (N, T, d)
+        Errors of N runs over T steps.
+    covariances : array_like, shape (N, T, d, d)
+        The filters' covariances.
+
+    Returns
+    -------
+    numpy.ndarray, shape (T,)
+        To compare with :func:`chi2_band` ``(d, N)``.
+    """
+    e = _as_array("errors", errors, 3)
+    return np.mean(mahalanobis2(e, covariances, "errors", "covariances"), axis=0)
+
+
+class ATE(NamedTuple):
+    """Absolute trajectory error: RMSE of the position (m) and of the heading (rad)."""
+
+    position: float
+    heading: float
+
+
+def ate(estimate, truth) -> ATE:
+    """Absolute trajectory error of a trajectory of poses (chapters 05, 06).
+
+    Parameters
+    ----------
+    estimate, truth : array_like, shape (T, 3)
+        Poses ``[x, y, theta]`` at the same T instants, in the same frame.
+
+    Returns
+    -------
+    ATE
+        ``position = sqrt(mean(dx^2 + dy^2))`` and
+        ``heading = sqrt(mean(wrap(dtheta)^2))``, no alignment (see the module
+        docstring).
+    """
+    d = pose_error(estimate, truth)
+    if d.ndim != 2 or d.shape[0] == 0:
+        raise ValueError(f"estimate: expected a trajectory of shape (T, 3), T >= 1, got {d.shape}")
+    return ATE(float(np.sqrt(np.mean(d[:, 0] ** 2 + d[:, 1] ** 2))),
+               float(np.sqrt(np.mean(d[:, 2] ** 2))))
