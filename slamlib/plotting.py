@@ -1,0 +1,154 @@
+"""Plotting helpers shared by the chapters, so that a chapter shows only its teaching code.
+
+Top views follow one rule: the world frame N is z-down (x forward, y to the
+right), so a picture of the world *seen from above* puts x to the right and
+y **downwards** on the screen (:func:`world_axes` inverts the y axis and fixes
+an equal aspect). Then a positive (clockwise) rotation looks clockwise and a
+left turn looks like a left turn.
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+from matplotlib.patches import Ellipse
+
+__all__ = ["FIGSIZE", "DPI", "world_axes", "plot_world", "plot_covariance_ellipse",
+           "plot_trajectory", "plot_robot", "plot_pose_errors", "covariance_ellipse_params"]
+
+#: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
+FIGSIZE = (6.4, 4.8)
+DPI = 80
+
+TRUTH_STYLE = {"color": "tab:red", "lw": 1.6, "label": "ground truth"}
+ESTIMATE_STYLE = {"color": "tab:blue", "lw": 1.4, "label": "estimate"}
+
+
+def world_axes(ax=None, world=None, *, margin: float = 0.3, title: str | None = None):
+    """Prepare a top view: x right, y down (z-down world seen from above), equal aspect.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes, optional
+        A new figure of size :data:`FIGSIZE` if None.
+    world : World, optional
+        If given, the limits are the world's bounds plus ``margin``.
+
+    Returns
+    -------
+    matplotlib Axes
+    """
+    if ax is None:
+        _, ax = plt.subplots(figsize=FIGSIZE, dpi=DPI)
+    ax.set_aspect("equal", adjustable="datalim")
+    if world is not None:
+        xmin, xmax, ymin, ymax = world.bounds
+        ax.set_xlim(xmin - margin, xmax + margin)
+        ax.set_ylim(ymin - margin, ymax + margin)
+    if not ax.yaxis_inverted():
+        ax.invert_yaxis()
+    ax.set_xlabel("x (m)")
+    ax.set_ylabel("y (m), downwards: seen from above")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_world(ax, world, *, ids: bool = True, facing: bool = True, color: str = "k",
+               label: str | None = "markers (truth)", facing_length: float = 0.25):
+    """Draw the markers as stars, with their ids and (optionally) their facing direction."""
+    p = world.positions
+    ax.plot(p[:, 0], p[:, 1], "*", color=color, ms=9, label=label, zorder=4)
+    if facing:
+        for m in world.markers:
+            ax.plot([m.x, m.x + facing_length * np.cos(m.yaw)],
+                    [m.y, m.y + facing_length * np.sin(m.yaw)], "-", color=color, lw=0.8,
+                    alpha=0.6)
+    if ids:
+        for m in world.markers:
+            ax.annotate(str(m.id), (m.x, m.y), textcoords="offset points", xytext=(4, 4),
+                        fontsize=8, color=color)
+    return ax
+
+
+def covariance_ellipse_params(cov, nsigma: float = 2.0) -> tuple[float, float, float]:
+    """Width, height and angle (degrees) of the ``nsigma`` ellipse of a 2x2 covariance."""
+    cov = np.asarray(cov, dtype=float)[:2, :2]
+    vals, vecs = np.linalg.eigh(0.5 * (cov + cov.T))
+    vals = np.clip(vals, 0.0, None)
+    angle = np.degrees(np.arctan2(vecs[1, 1], vecs[0, 1]))
+    return 2.0 * nsigma * np.sqrt(vals[1]), 2.0 * nsigma * np.sqrt(vals[0]), float(angle)
+
+
+def plot_covariance_ellipse(ax, mean, cov, nsigma: float = 2.0, *, color: str = "gold",
+                            alpha: float = 0.35, fill: bool = True, **kwargs):
+    """Draw the ``nsigma`` uncertainty ellipse of the position block of ``cov`` at ``mean``.
+
+    ``cov`` may be the 3x3 pose covariance (its x-y block is used). In data
+    coordinates, so it is right on an inverted y axis too.
+    """
+    w, h, angle = covariance_ellipse_params(cov, nsigma)
+    e = Ellipse(xy=(float(mean[0]), float(mean[1])), width=w, height=h, angle=angle,
+                facecolor=color if fill else "none", edgecolor=color,
+                alpha=alpha, **kwargs)
+    ax.add_patch(e)
+    return e
+
+
+def plot_robot(ax, pose, *, size: float = 0.15, color: str = "tab:green", **kwargs):
+    """A triangle at ``pose`` pointing along the heading."""
+    x, y, th = (float(v) for v in pose[:3])
+    c, s = np.cos(th), np.sin(th)
+    pts = np.array([[size, 0.0], [-0.5 * size, 0.5 * size], [-0.5 * size, -0.5 * size]])
+    world = np.column_stack([x + c * pts[:, 0] - s * pts[:, 1], y + s * pts[:, 0] + c * pts[:, 1]])
+    patch = plt.Polygon(world, closed=True, color=color, **kwargs)
+    ax.add_patch(patch)
+    return patch
+
+
+def plot_trajectory(ax, poses, *, style: dict | None = None, **kwargs):
+    """Draw the path of poses ``(n, 3)`` (or points ``(n, 2)``); ``style`` merged with kwargs."""
+    poses = np.asarray(poses, dtype=float)
+    opts = {**(style or {}), **kwargs}
+    (line,) = ax.plot(poses[:, 0], poses[:, 1], **opts)
+    return line
+
+
+def plot_pose_errors(t, errors, sigmas=None, *, nsigma: float = 2.0, axes=None,
+                     label: str = "error", color: str = "tab:blue", title: str | None = None):
+    """Errors in x, y and theta against time, with the ``+-nsigma`` bands of the filter.
+
+    Parameters
+    ----------
+    t : array_like (n,)
+    errors : array_like (n, 3)
+        Estimate minus truth (theta wrapped).
+    sigmas : array_like (n, 3), optional
+        Standard deviations from the covariance's diagonal.
+
+    Returns
+    -------
+    (Figure, array of 3 Axes)
+    """
+    t = np.asarray(t, dtype=float)
+    errors = np.asarray(errors, dtype=float)
+    if axes is None:
+        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(6.4, 4.8), dpi=DPI)
+    else:
+        fig = axes[0].figure
+    names = ["x error (m)", "y error (m)", "theta error (rad)"]
+    for i, ax in enumerate(axes):
+        ax.plot(t, errors[:, i], color=color, lw=1.0, label=label)
+        if sigmas is not None:
+            s = nsigma * np.asarray(sigmas, dtype=float)[:, i]
+            ax.fill_between(t, -s, s, color="gold", alpha=0.35,
+                            label=f"$\\pm{nsigma:g}\\sigma$")
+        ax.axhline(0.0, color="k", lw=0.5)
+        ax.set_ylabel(names[i], fontsize=8)
+        ax.grid(True, lw=0.4, alpha=0.5)
+    axes[-1].set_xlabel("t (s)")
+    axes[0].legend(loc="upper left", fontsize=8)
+    if title:
+        axes[0].set_title(title)
+    return fig, axes

@@ -1,0 +1,331 @@
+"""The marker sensor interface, and an analytic marker sensor (chapters 01, 03, 05).
+
+A *sensor* is any object with a method::
+
+    read(world, pose, rng) -> Observations
+
+that returns what the robot's camera reports when the robot stands at ``pose``
+(``[x, y, theta]`` in the z-down world frame N) in ``world``
+(:class:`slamlib.worlds.World`), drawing its noise from ``rng``
+(a :class:`numpy.random.Generator`). The simulator (:mod:`slamlib.sim`) fills
+in the capture time. A sensor may also have the attributes ``rate`` (frames
+per second, default 10) and ``latency`` (seconds between capture and arrival,
+default 0), and a method ``R(rho)`` giving the 2x2 covariance of a reading at
+range ``rho`` that a filter should use.
+
+Two sensors share this interface:
+
+- :class:`AnalyticMarkerSensor` (here): geometry plus Gaussian noise, fast,
+  with optional misread ids and spurious outliers; the filters' chapters use it;
+- the camera sensor of :mod:`slamlib.vision` (chapter 02): renders the camera
+  image and detects the markers with OpenCV.
+
+Every reading ``z = [rho, beta]`` is in the robot frame B, measured from the
+robot's origin (not the camera's): ``rho`` the horizontal range (m) and
+``beta`` the bearing (rad, positive to the robot's right, z-down).
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field
+
+import numpy as np
+
+from .models import wrap_angle
+from .validate import as_finite_scalar, as_positive, as_vector
+
+__all__ = ["Observations", "AnalyticMarkerSensor", "CAMERA_OFFSET", "DEFAULT_FOV_HALF_ANGLE",
+           "ARUCO_ORIGINAL_IDS", "visible_markers"]
+
+#: Position ``(x, y)`` of the camera in the robot frame B (m): 0.122 m forward,
+#: 0.033 m to the left (z-down: y positive to the right).
+CAMERA_OFFSET = (0.122, -0.033)
+#: Horizontal half field of view of a 640x480 camera with f = 525 px: atan(320/525).
+DEFAULT_FOV_HALF_ANGLE = math.atan(320.0 / 525.0)
+#: Number of ids in DICT_ARUCO_ORIGINAL (ids 0..1023).
+ARUCO_ORIGINAL_IDS = 1024
+
+
+@dataclass
+class Observations:
+    """What a marker sensor reports for one camera frame.
+
+    Attributes
+    ----------
+    t : float
+        Capture time (s); the simulator fills it in (NaN until then).
+    ids : numpy.ndarray, shape (k,), int
+        The ids as read (a misread id differs from ``true_ids``).
+    z : numpy.ndarray, shape (k, 2)
+        ``[rho, beta]`` of each reading (m, rad) in the robot frame, from the
+        robot's origin, noise included.
+    true_ids : numpy.ndarray, shape (k,), int
+        The marker that really produced each reading; -1 for a spurious outlier.
+    z_true : numpy.ndarray, shape (k, 2), optional
+        The noise-free ``[rho, beta]`` (NaN for an outlier); None if unknown
+        (a real camera).
+    t_arrival : float, optional
+        When the frame reached the filter (capture time + latency); None if
+        not known yet.
+    """
+
+    t: float
+    ids: np.ndarray
+    z: np.ndarray
+    true_ids: np.ndarray
+    z_true: np.ndarray | None = None
+    t_arrival: float | None = None
+
+    def __post_init__(self):
+        self.ids = np.asarray(self.ids, dtype=np.int64).reshape(-1)
+        self.z = np.asarray(self.z, dtype=float).reshape(-1, 2)
+        self.true_ids = np.asarray(self.true_ids, dtype=np.int64).reshape(-1)
+        k = self.ids.shape[0]
+        if self.z.shape[0] != k or self.true_ids.shape[0] != k:
+            raise ValueError(f"Observations: ids ({k}), z ({self.z.shape[0]}) and true_ids "
+                             f"({self.true_ids.shape[0]}) must have the same length")
+        if self.z_true is not None:
+            self.z_true = np.asarray(self.z_true, dtype=float).reshape(-1, 2)
+            if self.z_true.shape[0] != k:
+                raise ValueError(f"Observations: z_true has {self.z_true.shape[0]} rows, "
+                                 f"expected {k}")
+
+    def __len__(self) -> int:
+        return int(self.ids.shape[0])
+
+    @classmethod
+    def empty(cls, t: float = float("nan")) -> Observations:
+        """A frame with no reading."""
+        return cls(t, np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros(0, np.int64),
+                   np.zeros((0, 2)))
+
+
+def _camera_positions(pose: np.ndarray, offset) -> np.ndarray:
+    c, s = math.cos(pose[2]), math.sin(pose[2])
+    return np.array([pose[0] + c * offset[0] - s * offset[1],
+                     pose[1] + s * offset[0] + c * offset[1]])
+
+
+def visible_markers(world, pose, *, fov_half_angle: float = DEFAULT_FOV_HALF_ANGLE,
+                    min_range: float = 0.2, max_range: float = 4.0,
+                    max_view_angle: float = math.radians(75.0),
+                    camera_offset=CAMERA_OFFSET) -> np.ndarray:
+    """Which markers of ``world`` the camera can see from ``pose`` (chapter 02/03).
+
+    A marker is visible when, measured from the camera (at ``camera_offset``
+    in the robot frame, looking along the robot's x axis):
+
+    - its centre lies within the horizontal field of view, ``|bearing| < fov_half_angle``;
+    - its horizontal distance is in ``[min_range, max_range]``;
+    - the camera is on its printed side and the viewing angle (between the
+      marker's outward normal and the line from the marker to the camera) is
+      below ``max_view_angle``.
+
+    Returns
+    -------
+    numpy.ndarray of bool, shape (n,)
+        One flag per marker, in the order of ``world.ids``.
+    """
+    pose = as_vector("pose", pose, 3)
+    if len(world.markers) == 0:
+        return np.zeros(0, dtype=bool)
+    cam = _camera_positions(pose, camera_offset)
+    d = world.positions - cam                      # camera -> marker
+    dist = np.hypot(d[:, 0], d[:, 1])
+    bearing_cam = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
+    normals = np.column_stack([np.cos(world.yaws), np.sin(world.yaws)])
+    safe = np.where(dist > 0.0, dist, 1.0)
+    cos_view = -(normals * d).sum(axis=1) / safe   # normal . (camera - marker) / |.|
+    return ((np.abs(bearing_cam) < fov_half_angle) & (dist >= min_range)
+            & (dist <= max_range) & (dist > 0.0)
+            & (cos_view > math.cos(max_view_angle)))
+
+
+@dataclass
+class AnalyticMarkerSensor:
+    """A marker sensor made of geometry and Gaussian noise (chapters 01, 03, 05, 08).
+
+    Which markers are seen is decided by :func:`visible_markers` (field of
+    view, range and viewing angle, all from the camera). Each seen marker gives
+    a reading ``z = [rho, beta]`` from the robot's origin with
+
+    - range noise ``N(bias, sigma_rho^2)``, ``sigma_rho = sigma_range0 +
+      sigma_range_per_m * rho`` and ``bias = range_bias_per_m2 * rho^2``
+      (a detector's ranges come out too long, growing with distance squared;
+      default 0);
+    - bearing noise ``N(0, sigma_bearing^2)``.
+
+    Faults, each drawn independently per reading or frame:
+
+    - with probability ``p_misread`` the id is misread: replaced by another id
+      of the world (fraction ``misread_in_world`` of the misreads) or by a
+      random id of the dictionary that is not the true one;
+    - with probability ``p_outlier`` per frame a spurious reading is added
+      (``true_id = -1``): range uniform in ``[min_range, max_range]``, bearing
+      uniform in the field of view, id drawn like a misread.
+
+    The sensor draws a fixed number of random numbers per marker of the world
+    and per frame, whatever its fault probabilities, so that switching the
+    faults on changes the ids and nothing else: the noise on every true
+    reading stays the same for the same generator state.
+
+    Parameters
+    ----------
+    fov_half_angle : float
+        Horizontal half field of view (rad); default ``atan(320/525)``, about
+        31.4 degrees, a 640x480 camera with f = 525 px.
+    min_range, max_range : float
+        Distance limits from the camera (m).
+    max_view_angle : float
+        Largest angle between the marker's normal and the line to the camera (rad).
+    camera_offset : tuple of float
+        Camera position ``(x, y)`` in the robot frame (m).
+    sigma_range0, sigma_range_per_m : float
+        Range noise standard deviation ``sigma_range0 + sigma_range_per_m * rho``.
+    range_bias_per_m2 : float
+        Range bias ``range_bias_per_m2 * rho^2`` (m).
+    sigma_bearing : float
+        Bearing noise standard deviation (rad).
+    p_misread, misread_in_world, p_outlier : float
+        Fault probabilities (see above).
+    rate : float
+        Frames per second.
+    latency : float
+        Seconds from capture to arrival at the filter.
+    """
+
+    fov_half_angle: float = DEFAULT_FOV_HALF_ANGLE
+    min_range: float = 0.2
+    max_range: float = 4.0
+    max_view_angle: float = math.radians(75.0)
+    camera_offset: tuple[float, float] = CAMERA_OFFSET
+    sigma_range0: float = 0.02
+    sigma_range_per_m: float = 0.01
+    range_bias_per_m2: float = 0.0
+    sigma_bearing: float = math.radians(1.0)
+    p_misread: float = 0.0
+    misread_in_world: float = 0.5
+    p_outlier: float = 0.0
+    rate: float = 10.0
+    latency: float = 0.0
+    dictionary_size: int = field(default=ARUCO_ORIGINAL_IDS)
+
+    def __post_init__(self):
+        as_positive("fov_half_angle", self.fov_half_angle)
+        if not self.fov_half_angle < math.pi:
+            raise ValueError(f"fov_half_angle: expected < pi, got {self.fov_half_angle}")
+        lo = as_finite_scalar("min_range", self.min_range)
+        hi = as_positive("max_range", self.max_range)
+        if not 0.0 <= lo < hi:
+            raise ValueError(f"min_range, max_range: expected 0 <= min_range < max_range, "
+                             f"got {lo}, {hi}")
+        as_positive("max_view_angle", self.max_view_angle)
+        self.camera_offset = tuple(float(v) for v in as_vector("camera_offset",
+                                                               self.camera_offset, 2))
+        for name in ("sigma_range0", "sigma_range_per_m", "sigma_bearing"):
+            if as_finite_scalar(name, getattr(self, name)) < 0.0:
+                raise ValueError(f"{name}: expected a standard deviation >= 0, "
+                                 f"got {getattr(self, name)}")
+        as_finite_scalar("range_bias_per_m2", self.range_bias_per_m2)
+        for name in ("p_misread", "misread_in_world", "p_outlier"):
+            p = as_finite_scalar(name, getattr(self, name))
+            if not 0.0 <= p <= 1.0:
+                raise ValueError(f"{name}: expected a probability in [0, 1], got {p}")
+        as_positive("rate", self.rate)
+        if as_finite_scalar("latency", self.latency) < 0.0:
+            raise ValueError(f"latency: expected >= 0 s, got {self.latency}")
+        if int(self.dictionary_size) < 2:
+            raise ValueError(f"dictionary_size: expected >= 2, got {self.dictionary_size}")
+
+    # ------------------------------------------------------------------ noise model
+    def sigma_range(self, rho):
+        """Range noise standard deviation at range ``rho`` (m)."""
+        return self.sigma_range0 + self.sigma_range_per_m * np.asarray(rho, dtype=float)
+
+    def range_bias(self, rho):
+        """Range bias at range ``rho`` (m)."""
+        return self.range_bias_per_m2 * np.asarray(rho, dtype=float) ** 2
+
+    def R(self, rho: float) -> np.ndarray:
+        """The 2x2 covariance of a reading at range ``rho`` that a filter should use.
+
+        ``diag(sigma_rho^2, sigma_bearing^2)`` with ``sigma_rho = sigma_range0 +
+        sigma_range_per_m * rho`` (the bias is not noise: correct it, or it
+        shows up as inconsistency).
+        """
+        rho = as_finite_scalar("rho", rho)
+        return np.diag([float(self.sigma_range(max(rho, 0.0))) ** 2, self.sigma_bearing ** 2])
+
+    def params(self) -> dict:
+        """The parameters as a JSON-ready dict (for a run's ``meta.json``)."""
+        d = asdict(self)
+        d["camera_offset"] = list(self.camera_offset)
+        return {"type": type(self).__name__, **d}
+
+    @classmethod
+    def from_params(cls, d: dict) -> AnalyticMarkerSensor:
+        """Rebuild a sensor from :meth:`params`."""
+        d = dict(d)
+        kind = d.pop("type", cls.__name__)
+        if kind != cls.__name__:
+            raise ValueError(f"type: expected {cls.__name__!r}, got {kind!r}")
+        return cls(**d)
+
+    # ------------------------------------------------------------------ reading
+    def visible(self, world, pose) -> np.ndarray:
+        """Flags of the markers this sensor sees from ``pose`` (see :func:`visible_markers`)."""
+        return visible_markers(world, pose, fov_half_angle=self.fov_half_angle,
+                               min_range=self.min_range, max_range=self.max_range,
+                               max_view_angle=self.max_view_angle,
+                               camera_offset=self.camera_offset)
+
+    def _wrong_id(self, true_id: int, world_ids: np.ndarray, u_kind: float, u_pick: float) -> int:
+        others = world_ids[world_ids != true_id]
+        if u_kind < self.misread_in_world and others.size:
+            return int(others[min(int(u_pick * others.size), others.size - 1)])
+        n = int(self.dictionary_size)
+        if true_id < 0:                       # an outlier: any id of the dictionary
+            return min(int(u_pick * n), n - 1)
+        # a dictionary id other than true_id
+        k = min(int(u_pick * (n - 1)), n - 2)
+        return k + 1 if 0 <= true_id <= k else k
+
+    def read(self, world, pose, rng: np.random.Generator) -> Observations:
+        """One camera frame from ``pose`` in ``world`` (the capture time is left NaN).
+
+        Readings come in the order of ``world.ids``, an outlier (if any) last.
+        """
+        pose = as_vector("pose", pose, 3)
+        n = len(world.markers)
+        # Fixed draws: the noise of marker i does not depend on the faults.
+        e = rng.standard_normal((n, 2))
+        u_fault = rng.random((n, 3))
+        u_out = rng.random(5)
+        seen = self.visible(world, pose) if n else np.zeros(0, bool)
+        idx = np.flatnonzero(seen)
+        ids_true = world.ids[idx] if n else np.zeros(0, np.int64)
+        p = world.positions[idx] if n else np.zeros((0, 2))
+        dx, dy = p[:, 0] - pose[0], p[:, 1] - pose[1]
+        rho_t = np.hypot(dx, dy)
+        beta_t = wrap_angle(np.arctan2(dy, dx) - pose[2]) if idx.size else np.zeros(0)
+        rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * e[idx, 0]
+        rho = np.maximum(rho, 0.0)
+        beta = wrap_angle(beta_t + self.sigma_bearing * e[idx, 1]) if idx.size else np.zeros(0)
+        ids = ids_true.astype(np.int64).copy()
+        world_ids = world.ids.astype(np.int64) if n else np.zeros(0, np.int64)
+        for j, i in enumerate(idx):
+            if u_fault[i, 0] < self.p_misread:
+                ids[j] = self._wrong_id(int(ids_true[j]), world_ids, u_fault[i, 1], u_fault[i, 2])
+        z = np.column_stack([rho, beta])
+        z_true = np.column_stack([rho_t, beta_t])
+        true_ids = ids_true.astype(np.int64)
+        if u_out[0] < self.p_outlier:
+            r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
+            b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
+            id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
+            ids = np.append(ids, id_o)
+            z = np.vstack([z, [r_o, b_o]])
+            z_true = np.vstack([z_true, [np.nan, np.nan]])
+            true_ids = np.append(true_ids, -1)
+        return Observations(float("nan"), ids, z, true_ids, z_true)

@@ -1,0 +1,433 @@
+"""A simulated Kobuki: waypoint driving, wheel slip, wrapping encoders, a camera (chapter 01).
+
+What the simulator does, one encoder period ``dt = 1/encoder_rate`` at a time:
+
+1. the :class:`WaypointController` looks at the true pose and commands the
+   wheels' rim speeds ``[V_R, V_L]`` (speed, turn-rate and acceleration
+   limits), held for the period;
+2. each wheel's *ground* speed is its rim speed plus a slip ``N(0,
+   sigma_wheel^2)``, drawn per wheel and held for the period;
+3. the true pose moves along the exact arc of the ground speeds
+   (:func:`integrate_arc`): no integration error in the ground truth;
+4. each encoder counts the *rim* angle, floored to whole ticks, in an unsigned
+   16-bit counter that wraps around (:func:`encoder_counter`).
+
+So the wheel speeds a filter computes from the ticks differ from the ground
+speeds that moved the robot by the slip (white, variance ``sigma_wheel^2``
+per wheel per period) plus the tick quantisation: ``Q = sigma_wheel^2 I``
+(plus the quantisation variance, :meth:`slamlib.runs.Run.Q`) is the right
+process noise for a filter that predicts once per encoder period.
+
+A camera frame is captured every ``1/sensor.rate`` s at the pose on the arc
+at that instant; it reaches the filter ``sensor.latency`` s later.
+
+Randomness: ``np.random.default_rng(seed)`` spawns two child generators, one
+for the motion (slip) and one for the sensing, so a run is fixed by its seed,
+bit for bit, and changing the sensor (switching misreads on, say) never
+changes the motion.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import asdict, dataclass, field, replace
+
+import numpy as np
+
+from .models import KOBUKI_TICKS_PER_REV, KOBUKI_WHEEL_BASE, KOBUKI_WHEEL_RADIUS, wrap_angle
+from .runs import CameraRows, Run
+from .sensors import AnalyticMarkerSensor, Observations
+from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
+from .worlds import World
+
+__all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
+           "encoder_counter", "simulate", "arena_loop_waypoints", "loop_waypoints",
+           "SCENARIOS", "scenario", "kobuki_params_dict"]
+
+
+# --------------------------------------------------------------------------- pure pieces
+def wheel_commands(v: float, w: float, wheel_base: float = KOBUKI_WHEEL_BASE
+                   ) -> tuple[float, float]:
+    """Body speeds to wheel speeds, the inverse of :func:`slamlib.models.body_velocity`.
+
+    With ``w = (V_L - V_R)/b`` (z-down: positive w turns clockwise seen from
+    above): ``V_R = v - w b/2`` and ``V_L = v + w b/2``.
+
+    Returns
+    -------
+    (float, float)
+        ``(V_R, V_L)`` in m/s.
+    """
+    half = 0.5 * w * wheel_base
+    return v - half, v + half
+
+
+def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
+    """Exact motion at constant ``v`` (m/s) and ``w`` (rad/s) for ``dt`` seconds (chapter 01).
+
+    The unicycle ``x' = v cos(theta), y' = v sin(theta), theta' = w`` solved in
+    closed form: an arc of radius ``v/w``, or a straight segment when ``w`` is
+    (nearly) zero. Compare with the Euler step of
+    :func:`slamlib.models.motion_model`, which keeps the start heading.
+
+    Returns
+    -------
+    numpy.ndarray, shape (3,)
+        The pose after ``dt``, heading wrapped to [-pi, pi).
+    """
+    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
+    dth = w * dt
+    if abs(dth) < 1e-9:
+        # second-order expansion of the arc (exact to ~1e-27 m here)
+        c, s = math.cos(th + 0.5 * dth), math.sin(th + 0.5 * dth)
+        return np.array([x + v * dt * c, y + v * dt * s, wrap_angle(th + dth)])
+    r = v / w
+    th1 = th + dth
+    return np.array([x + r * (math.sin(th1) - math.sin(th)),
+                     y - r * (math.cos(th1) - math.cos(th)),
+                     wrap_angle(th1)])
+
+
+def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_REV,
+                    offset: int = 0, bits: int = 16) -> int:
+    """The counter an encoder shows after its wheel turned ``rim_angle`` rad (chapter 01).
+
+    Whole ticks passed (floor), plus the counter's initial value ``offset``,
+    modulo ``2**bits``: a 16-bit counter wraps from 65535 to 0 going forwards
+    and from 0 to 65535 going backwards.
+    """
+    ticks = math.floor(rim_angle * ticks_per_rev / (2.0 * math.pi))
+    return (ticks + int(offset)) % (1 << bits)
+
+
+# --------------------------------------------------------------------------- robot
+@dataclass(frozen=True)
+class KobukiParams:
+    """The simulated Kobuki's wheels, encoders and slip (chapter 01).
+
+    Attributes
+    ----------
+    wheel_base, wheel_radius : float
+        b and r (m).
+    ticks_per_rev : float
+        Encoder ticks per wheel revolution.
+    encoder_rate : float
+        Encoder sampling rate (Hz); also the simulation step.
+    bits : int
+        Counter width (the counters wrap modulo ``2**bits``).
+    sigma_wheel : float
+        Standard deviation of each wheel's slip speed (m/s), white, held for
+        one encoder period.
+    initial_ticks : tuple of int
+        The counters' values at t = 0 ``(right, left)``; the default puts the
+        right counter close to its wrap so that it wraps within a second.
+    """
+
+    wheel_base: float = KOBUKI_WHEEL_BASE
+    wheel_radius: float = KOBUKI_WHEEL_RADIUS
+    ticks_per_rev: float = KOBUKI_TICKS_PER_REV
+    encoder_rate: float = 50.0
+    bits: int = 16
+    sigma_wheel: float = 0.02
+    initial_ticks: tuple[int, int] = (65_300, 12_000)
+
+    def __post_init__(self):
+        for name in ("wheel_base", "wheel_radius", "ticks_per_rev", "encoder_rate"):
+            as_positive(name, getattr(self, name))
+        if as_finite_scalar("sigma_wheel", self.sigma_wheel) < 0.0:
+            raise ValueError(f"sigma_wheel: expected a standard deviation >= 0, "
+                             f"got {self.sigma_wheel}")
+        if not isinstance(self.bits, int) or not 1 <= self.bits <= 62:
+            raise ValueError(f"bits: expected an integer in 1..62, got {self.bits!r}")
+        if len(self.initial_ticks) != 2 or any(
+                not 0 <= int(v) < (1 << self.bits) for v in self.initial_ticks):
+            raise ValueError(f"initial_ticks: expected two counters in [0, 2**bits), "
+                             f"got {self.initial_ticks!r}")
+
+    @property
+    def dt(self) -> float:
+        """Encoder period (s)."""
+        return 1.0 / self.encoder_rate
+
+
+@dataclass
+class WaypointController:
+    """Drive through waypoints: turn towards the next one, go, slow down at the end (ch. 01).
+
+    At each call of :meth:`command` (once per encoder period) the controller
+    aims at the current waypoint: turn rate ``w = k_heading * e`` for the
+    heading error ``e`` (clipped to ``w_max``), forward speed ``v_max *
+    cos(e)`` (zero when ``|e| > turn_in_place``, and slower on the final
+    approach), both rate-limited by ``accel`` and ``alpha``. A waypoint is
+    reached within ``tolerance``; after the last one the robot stops.
+
+    The controller steers by the *true* pose: it stands for a robot that
+    follows its path well, so that every run of a scenario drives the same
+    path whatever its noise.
+
+    Attributes
+    ----------
+    waypoints : array_like, shape (n, 2)
+        Points to pass, in N.
+    v_max, w_max : float
+        Speed (m/s) and turn-rate (rad/s) limits.
+    accel, alpha : float
+        Linear (m/s^2) and angular (rad/s^2) acceleration limits.
+    """
+
+    waypoints: np.ndarray
+    v_max: float = 0.2
+    w_max: float = 0.7
+    k_heading: float = 1.8
+    accel: float = 0.4
+    alpha: float = 2.0
+    tolerance: float = 0.10
+    turn_in_place: float = math.radians(50.0)
+    index: int = field(default=0, init=False)
+    _v: float = field(default=0.0, init=False, repr=False)
+    _w: float = field(default=0.0, init=False, repr=False)
+
+    def __post_init__(self):
+        self.waypoints = as_matrix("waypoints", self.waypoints, (None, 2)).copy()
+        if self.waypoints.shape[0] == 0:
+            raise ValueError("waypoints: expected at least one waypoint")
+        for name in ("v_max", "w_max", "k_heading", "accel", "alpha", "tolerance",
+                     "turn_in_place"):
+            as_positive(name, getattr(self, name))
+
+    def reset(self) -> None:
+        """Back to the first waypoint, at rest."""
+        self.index, self._v, self._w = 0, 0.0, 0.0
+
+    @property
+    def done(self) -> bool:
+        """True once the last waypoint is reached and the robot has stopped."""
+        return self.index >= self.waypoints.shape[0] and self._v == 0.0 and self._w == 0.0
+
+    def params(self) -> dict:
+        """The parameters as a JSON-ready dict."""
+        return {"type": type(self).__name__, "waypoints": self.waypoints.tolist(),
+                "v_max": self.v_max, "w_max": self.w_max, "k_heading": self.k_heading,
+                "accel": self.accel, "alpha": self.alpha, "tolerance": self.tolerance,
+                "turn_in_place": self.turn_in_place}
+
+    def command(self, pose, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
+                ) -> tuple[float, float]:
+        """Wheel speed commands ``(V_R, V_L)`` (m/s) for the next ``dt`` seconds."""
+        n = self.waypoints.shape[0]
+        while self.index < n:
+            d = self.waypoints[self.index] - pose[:2]
+            if math.hypot(d[0], d[1]) > self.tolerance:
+                break
+            self.index += 1
+        if self.index < n:
+            d = self.waypoints[self.index] - pose[:2]
+            dist = math.hypot(d[0], d[1])
+            e = float(wrap_angle(math.atan2(d[1], d[0]) - pose[2]))
+            w_des = max(-self.w_max, min(self.w_max, self.k_heading * e))
+            v_des = 0.0 if abs(e) > self.turn_in_place else self.v_max * math.cos(e)
+            if self.index == n - 1:                 # final approach: brake in time
+                v_des = min(v_des, math.sqrt(2.0 * self.accel * max(dist - 0.5 * self.tolerance,
+                                                                    0.0)))
+        else:
+            v_des = w_des = 0.0
+        dv, dw = self.accel * dt, self.alpha * dt
+        self._v += max(-dv, min(dv, v_des - self._v))
+        self._w += max(-dw, min(dw, w_des - self._w))
+        return wheel_commands(self._v, self._w, wheel_base)
+
+
+# --------------------------------------------------------------------------- paths
+def arena_loop_waypoints() -> np.ndarray:
+    """The loop in the report's arena (chapters 01, 03, 05).
+
+    From the start pose (3.0, -0.78) heading +y, the robot drives around the
+    central post (markers 41/51), along the markers 21/31, 81, 71, 0 and 1,
+    and comes back along its first leg, past the first markers it saw, so that
+    a SLAM filter closes the loop. About 13 m, a little over a minute.
+    """
+    return np.array([
+        [3.05, 0.60], [2.95, 2.00], [1.90, 2.30], [0.95, 2.05], [0.75, 1.00],
+        [0.95, 0.00], [1.90, -0.65], [2.80, -0.90], [3.05, 0.30], [3.00, 1.50],
+    ])
+
+
+def loop_waypoints(bounds, margin: float = 0.8, count: int = 10, overlap: int = 2
+                   ) -> np.ndarray:
+    """A closed loop of ``count`` points on an ellipse inside ``bounds``, plus ``overlap``
+    points of a second lap (so the robot passes its start again), for random worlds.
+
+    The loop runs clockwise seen from above (positive angles in z-down).
+    """
+    xmin, xmax, ymin, ymax = (float(v) for v in bounds)
+    cx, cy = 0.5 * (xmin + xmax), 0.5 * (ymin + ymax)
+    ax, ay = 0.5 * (xmax - xmin) - margin, 0.5 * (ymax - ymin) - margin
+    if ax <= 0 or ay <= 0:
+        raise ValueError(f"margin: {margin} m leaves no room inside bounds {bounds}")
+    a = np.pi + 2.0 * np.pi * np.arange(count + overlap + 1) / count
+    return np.column_stack([cx + ax * np.cos(a), cy + ay * np.sin(a)])
+
+
+# --------------------------------------------------------------------------- the simulator
+def _sensor_params(sensor) -> dict:
+    if sensor is None:
+        return {}
+    if hasattr(sensor, "params"):
+        return sensor.params()
+    return {"type": type(sensor).__name__}
+
+
+def simulate(world: World, controller: WaypointController, *, sensor=None, seed: int = 0,
+             params: KobukiParams | None = None, start_pose=None, max_duration: float = 300.0,
+             name: str | None = None, description: str = "") -> Run:
+    """Drive the simulated Kobuki through ``world`` and record a :class:`~slamlib.runs.Run`.
+
+    Parameters
+    ----------
+    world : World
+        Where the robot drives (its markers are what the sensor sees).
+    controller : WaypointController
+        The path; it is reset first (a copy is used, the argument is not changed).
+    sensor : object with ``read(world, pose, rng)``, optional
+        The camera; ``None`` records no readings (the sensing generator is
+        still spawned, so the motion is the same with or without a sensor).
+    seed : int
+        Fixes the run, bit for bit.
+    params : KobukiParams, optional
+        Wheels, encoders and slip (default ``KobukiParams()``).
+    start_pose : array_like (3,), optional
+        Default: the world's ``start_pose``.
+    max_duration : float
+        Stop after this many seconds even if the path is not finished.
+    name, description : str
+        Stored in the run's meta.
+
+    Returns
+    -------
+    Run
+    """
+    params = params or KobukiParams()
+    if start_pose is None:
+        if world.start_pose is None:
+            raise ValueError("start_pose: the world has none; pass start_pose=[x, y, theta]")
+        start_pose = world.start_pose
+    pose = as_vector("start_pose", start_pose, 3).copy()
+    pose[2] = wrap_angle(pose[2])
+    as_positive("max_duration", max_duration)
+    if not isinstance(seed, (int, np.integer)) or seed < 0:
+        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    ctl = replace(controller)
+    ctl.reset()
+
+    rng_motion, rng_sense = np.random.default_rng(int(seed)).spawn(2)
+    b, r, dt = params.wheel_base, params.wheel_radius, params.dt
+    tpr, bits, off = params.ticks_per_rev, params.bits, params.initial_ticks
+    rate = float(getattr(sensor, "rate", 10.0)) if sensor is not None else 0.0
+    latency = float(getattr(sensor, "latency", 0.0)) if sensor is not None else 0.0
+    n_max = int(math.ceil(max_duration * params.encoder_rate))
+
+    times, poses = [0.0], [pose.copy()]
+    angle_R = angle_L = 0.0
+    ticks_R = [encoder_counter(0.0, tpr, off[0], bits)]
+    ticks_L = [encoder_counter(0.0, tpr, off[1], bits)]
+    frames: list[Observations] = []
+    next_frame = 0                      # index j of the next camera frame, at t = j / rate
+
+    def capture(j: int, p: np.ndarray) -> None:
+        obs = sensor.read(world, p, rng_sense)
+        t = j / rate
+        obs.t, obs.t_arrival = t, t + latency
+        frames.append(obs)
+
+    k = 0
+    while k < n_max and not ctl.done:
+        VR, VL = ctl.command(pose, dt, b)
+        slip = params.sigma_wheel * rng_motion.standard_normal(2)
+        gR, gL = VR + slip[0], VL + slip[1]
+        v, w = 0.5 * (gR + gL), (gL - gR) / b
+        # camera frames captured during this period [k dt, (k+1) dt)
+        while sensor is not None:
+            x = next_frame * params.encoder_rate / rate     # capture time in periods
+            kk = math.floor(x + 1e-9)
+            if kk > k:
+                break
+            frac = max(x - k, 0.0) if kk == k else 0.0
+            p = pose if frac < 1e-9 else integrate_arc(pose, v, w, frac * dt)
+            capture(next_frame, p)
+            next_frame += 1
+        pose = integrate_arc(pose, v, w, dt)
+        angle_R += VR * dt / r
+        angle_L += VL * dt / r
+        k += 1
+        times.append(k / params.encoder_rate)
+        poses.append(pose)
+        ticks_R.append(encoder_counter(angle_R, tpr, off[0], bits))
+        ticks_L.append(encoder_counter(angle_L, tpr, off[1], bits))
+
+    t = np.array(times)
+    meta = {
+        "world": world.name, "seed": int(seed), "duration": float(t[-1]),
+        "description": description,
+        "encoder": {"rate": params.encoder_rate, "ticks_per_rev": tpr, "bits": bits,
+                    "wheel_radius": r, "wheel_base": b},
+        "motion": {"sigma_wheel": params.sigma_wheel, "kobuki": kobuki_params_dict(params),
+                   "model": "ground speed = rim speed + N(0, sigma_wheel^2) per wheel, "
+                            "held for each encoder period; exact arcs"},
+        "sensor": _sensor_params(sensor),
+        "controller": ctl.params(),
+        "start_pose": [float(v) for v in poses[0]],
+        "finished": bool(ctl.done),
+    }
+    return Run(name=name or f"{world.name}_seed{seed}", truth_t=t, truth=np.array(poses),
+               enc_t=t, ticks_R=np.array(ticks_R), ticks_L=np.array(ticks_L),
+               camera=CameraRows.from_frames(frames), meta=meta)
+
+
+def kobuki_params_dict(params: KobukiParams) -> dict:
+    """``params`` as a JSON-ready dict."""
+    d = asdict(params)
+    d["initial_ticks"] = [int(v) for v in d["initial_ticks"]]
+    return d
+
+
+# --------------------------------------------------------------------------- recorded scenarios
+#: The recorded runs of ``data/runs`` (``tools/make_runs.py`` writes them):
+#: name -> (world, path, seed, sensor overrides, description).
+SCENARIOS = {
+    "arena_loop": ("report_arena", "arena", 1, {},
+                   "The report's arena, one loop around the central post and back along the "
+                   "first leg (loop closure on markers 21/31)."),
+    "arena_loop_misreads": ("report_arena", "arena", 1, {"p_misread": 0.05},
+                            "arena_loop with 5 % of the ids misread (half of them as another "
+                            "marker of the world): the same motion and the same range/bearing "
+                            "noise, only some ids differ."),
+    "random_loop": ("random_16_seed4", "ellipse", 2, {},
+                    "An elliptic loop and a bit through a random world of 16 markers facing "
+                    "random directions."),
+}
+
+
+def scenario(name: str, *, seed: int | None = None, sigma_wheel: float | None = None,
+             sensor=None, **sensor_overrides) -> Run:
+    """Simulate one of the recorded scenarios (:data:`SCENARIOS`), optionally changed.
+
+    ``scenario("arena_loop")`` equals ``load_run("arena_loop")`` bit for bit;
+    ``seed``, ``sigma_wheel``, a different ``sensor`` or sensor parameters
+    (``p_misread=0.1``...) give variations of it (chapter 01's noise slider).
+    """
+    from .worlds import load_world
+
+    if name not in SCENARIOS:
+        raise ValueError(f"name: expected one of {sorted(SCENARIOS)}, got {name!r}")
+    world_name, path, seed0, overrides, description = SCENARIOS[name]
+    world = load_world(world_name)
+    if path == "arena":
+        waypoints = arena_loop_waypoints()
+    else:
+        waypoints = loop_waypoints(world.bounds, margin=1.0)[1:]
+    if sensor is None:
+        sensor = AnalyticMarkerSensor(**{**overrides, **sensor_overrides})
+    params = KobukiParams() if sigma_wheel is None else KobukiParams(sigma_wheel=sigma_wheel)
+    return simulate(world, WaypointController(waypoints), sensor=sensor,
+                    seed=seed0 if seed is None else seed, params=params, name=name,
+                    description=description)
