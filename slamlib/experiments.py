@@ -1,0 +1,212 @@
+"""Running a filter over a recorded run, and what comes out (chapters 01, 03, 05, 06, 08).
+
+Every chapter and the figure script drive the filters the same way: start at
+the run's first true pose, predict with the encoders' wheel speeds, update
+with each camera frame, and record the robot's estimate and covariance after
+every event next to the truth. This module does exactly that, once.
+
+- :func:`dead_reckoning` predicts only (the report's Fig. 4);
+- :func:`localization` runs the map-based EKF on the world's true map (Figs. 5, 6);
+- :func:`slam` runs EKF SLAM (Figs. 7, 8);
+- :func:`run_filter` is the loop they share, for any filter built by hand.
+
+Each returns a :class:`Trace`, whose :meth:`Trace.metrics` gives the numbers
+the figure script prints (ATE, mean NEES, landmarks mapped, map error).
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+
+import numpy as np
+
+from .ekf import EKFSLAM, EKFLocalization, UpdateReport
+from .metrics import ate, nees, pose_error
+from .runs import Run
+
+__all__ = ["Trace", "run_filter", "dead_reckoning", "localization", "slam", "map_error",
+           "DEFAULT_P0", "DEFAULT_R"]
+
+#: Initial pose covariance: the robot starts where the map's frame is defined.
+DEFAULT_P0 = np.diag([1e-6, 1e-6, 1e-6])
+#: Reading covariance used when the run's sensor does not give one (5 cm, 2 deg).
+DEFAULT_R = np.diag([0.05**2, np.radians(2.0) ** 2])
+
+
+@dataclass
+class Trace:
+    """The robot's estimate after every event of a run, with the truth beside it.
+
+    Attributes
+    ----------
+    t : numpy.ndarray (N,)
+        Event times (s): the start, then each prediction and each update.
+    kind : numpy.ndarray of str (N,)
+        ``"start"``, ``"predict"`` or ``"update"``.
+    x : numpy.ndarray (N, 3)
+        Estimated pose after the event.
+    P : numpy.ndarray (N, 3, 3)
+        Its covariance.
+    truth : numpy.ndarray (N, 3)
+        True pose at the event's time.
+    reports : list of (float, UpdateReport)
+        Every update's report with its time.
+    filter : EKFLocalization or EKFSLAM
+        The filter in its final state.
+    """
+
+    t: np.ndarray
+    kind: np.ndarray
+    x: np.ndarray
+    P: np.ndarray
+    truth: np.ndarray
+    reports: list = field(default_factory=list)
+    filter: object = None
+
+    @property
+    def error(self) -> np.ndarray:
+        """Estimate minus truth, heading wrapped, shape (N, 3)."""
+        return pose_error(self.x, self.truth)
+
+    @property
+    def sigma(self) -> np.ndarray:
+        """Standard deviations of x, y, theta, shape (N, 3)."""
+        return np.sqrt(np.maximum(np.diagonal(self.P, axis1=1, axis2=2), 0.0))
+
+    @property
+    def nees(self) -> np.ndarray:
+        """NEES of the pose after every event, shape (N,) (3 degrees of freedom)."""
+        return nees(self.error, self.P)
+
+    def nis(self) -> tuple[np.ndarray, np.ndarray]:
+        """The joint NIS of every update that fused something, and its degrees of freedom."""
+        vals, dofs = [], []
+        for _, rep in self.reports:
+            if rep.n_accepted:
+                vals.append(rep.joint_nis)
+                dofs.append(2 * rep.n_accepted)
+        return np.array(vals), np.array(dofs, dtype=int)
+
+    def counts(self) -> dict[str, int]:
+        """How many readings ended in each status (accepted, rejected, new...)."""
+        out: dict[str, int] = {}
+        for _, rep in self.reports:
+            for s in rep.status:
+                out[s] = out.get(s, 0) + 1
+        return out
+
+    def metrics(self, world=None) -> dict[str, float]:
+        """ATE (m, rad), mean pose NEES and, for SLAM with a world, the map's figures."""
+        a = ate(self.x, self.truth)
+        out = {"ate_xy": float(a.position), "ate_theta": float(a.heading),
+               "mean_nees": float(np.mean(self.nees)),
+               "final_xy_error": float(np.hypot(*self.error[-1, :2]))}
+        if isinstance(self.filter, EKFSLAM):
+            out["landmarks"] = float(self.filter.n_landmarks)
+            if world is not None:
+                out["map_rmse"] = map_error(self.filter, world)[0]
+        return out
+
+
+def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,
+               max_time: float | None = None) -> Trace:
+    """Drive ``filt`` through ``run``'s events and record a :class:`Trace`.
+
+    Parameters
+    ----------
+    run : Run
+        The recorded run.
+    filt : EKFLocalization or EKFSLAM
+        The filter, already initialised (usually at ``run.start_pose``).
+    by : {"capture", "arrival"}
+        When camera frames reach the filter (:meth:`Run.events`).
+    use_sensor_R : bool
+        Give each reading the covariance ``sensor.R(range)`` of the run's
+        sensor (it grows with range); otherwise the filter's own R.
+    max_time : float, optional
+        Stop after this time (s).
+    """
+    sensor = run.sensor() if use_sensor_R else None
+    t, kinds, xs, Ps = [float(run.enc_t[0])], ["start"], [filt.pose.copy()], [filt.pose_cov.copy()]
+    reports: list[tuple[float, UpdateReport]] = []
+    for ev in run.events(by=by):
+        if max_time is not None and ev.t > max_time:
+            break
+        if ev.kind == "predict":
+            filt.predict(ev.u, ev.dt)
+        else:
+            obs = ev.obs
+            if len(obs) == 0:
+                continue
+            R = None if sensor is None else np.stack([sensor.R(r) for r in obs.z[:, 0]])
+            reports.append((ev.t, filt.update(obs.ids, obs.z, R=R)))
+        t.append(ev.t)
+        kinds.append(ev.kind)
+        xs.append(filt.pose.copy())
+        Ps.append(filt.pose_cov.copy())
+    t_arr = np.array(t)
+    return Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
+                 truth=run.truth_at(t_arr), reports=reports, filter=filt)
+
+
+def _R(run: Run) -> np.ndarray:
+    sensor = run.sensor()
+    return DEFAULT_R if sensor is None else sensor.R(2.0)
+
+
+def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = None) -> Trace:
+    """Prediction only, from the run's first true pose (chapter 01, the report's Fig. 4)."""
+    Q = run.Q() if Q is None else Q
+    filt = EKFLocalization(run.start_pose, P0, Q, _R(run), landmarks={},
+                           wheel_base=run.wheel_base)
+    t = [float(run.enc_t[0])]
+    xs, Ps = [filt.pose.copy()], [filt.pose_cov.copy()]
+    u, dt = run.controls()
+    for k in range(dt.shape[0]):
+        if max_time is not None and run.enc_t[k + 1] > max_time:
+            break
+        filt.predict(u[k], dt[k])
+        t.append(float(run.enc_t[k + 1]))
+        xs.append(filt.pose.copy())
+        Ps.append(filt.pose_cov.copy())
+    t_arr = np.array(t)
+    kinds = np.array(["start"] + ["predict"] * (len(t) - 1))
+    return Trace(t=t_arr, kind=kinds, x=np.array(xs), P=np.array(Ps),
+                 truth=run.truth_at(t_arr), filter=filt)
+
+
+def localization(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
+                 by: str = "capture", landmarks=None, use_sensor_R: bool = True) -> Trace:
+    """The map-based EKF on the run's world (chapter 03, the report's Figs. 5 and 6)."""
+    Q = run.Q() if Q is None else Q
+    lm = run.world().landmarks() if landmarks is None else landmarks
+    filt = EKFLocalization(run.start_pose, P0, Q, _R(run) if R is None else R, lm,
+                           wheel_base=run.wheel_base, gate=gate)
+    return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None)
+
+
+def slam(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
+         by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None
+         ) -> Trace:
+    """EKF SLAM from the run's first true pose (chapter 05, the report's Figs. 7 and 8)."""
+    Q = run.Q() if Q is None else Q
+    filt = EKFSLAM(run.start_pose, P0, Q, _R(run) if R is None else R,
+                   wheel_base=run.wheel_base, gate=gate)
+    return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
+                      max_time=max_time)
+
+
+def map_error(filt: EKFSLAM, world) -> tuple[float, dict[int, float]]:
+    """RMS distance (m) between mapped landmarks and the true markers with the same id.
+
+    Returns the RMS over the ids the world knows, and each id's error. A mapped
+    id that is not in the world (a misread that made it into the map) is
+    reported with error ``inf`` and left out of the RMS.
+    """
+    true = world.landmarks()
+    errs = {}
+    for i, p in filt.landmarks.items():
+        errs[int(i)] = float(np.hypot(*(p - true[i]))) if i in true else float("inf")
+    finite = [e for e in errs.values() if np.isfinite(e)]
+    rms = float(np.sqrt(np.mean(np.square(finite)))) if finite else float("nan")
+    return rms, errs
