@@ -9,6 +9,7 @@ act on and returns True or False. It never raises on a student's mistake:
 - it returns the wrong shape or wrong numbers: which entry is wrong, what was
   expected, and a hint when only the sign is flipped.
 
+Chapter 00: :func:`check_pose_from_zup`.
 Chapter 01: :func:`check_motion_jacobians`.
 """
 
@@ -17,9 +18,10 @@ from __future__ import annotations
 import numpy as np
 
 from .checks import compare_jacobians, numerical_jacobian
-from .models import KOBUKI_WHEEL_BASE, motion_model
+from .frames import pose_from_zup
+from .models import KOBUKI_WHEEL_BASE, motion_model, wrap_angle
 
-__all__ = ["check_motion_jacobians"]
+__all__ = ["check_pose_from_zup", "check_motion_jacobians"]
 
 
 def _random_motion_points(n: int, seed: int):
@@ -89,4 +91,45 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
                 "W's columns are d/dV_R and d/dV_L, and w = (V_L - V_R)/b in the z-down frame.")
             return False
     say(f"{name}: correct. A and W match finite differences at {n_points} random points.")
+    return True
+
+
+# --------------------------------------------------------------------------- chapter 00
+def check_pose_from_zup(fn, n_points: int = 8, seed: int = 0, verbose: bool = True) -> bool:
+    """Check a student's ``fn(pose_zup) -> pose_zdown`` for one pose ``[x, y, yaw]`` (chapter 00).
+
+    Compared with :func:`slamlib.frames.pose_from_zup` at random poses, including
+    headings on the +-pi seam; the heading must come back wrapped to [-pi, pi).
+    """
+    def say(msg: str) -> None:
+        if verbose:
+            print(msg)
+
+    name = getattr(fn, "__name__", "your function")
+    rng = np.random.default_rng(seed)
+    poses = [np.array([rng.uniform(-5, 5), rng.uniform(-5, 5), rng.uniform(-np.pi, np.pi)])
+             for _ in range(n_points - 2)]
+    poses += [np.array([1.0, 2.0, -np.pi]), np.array([-1.5, 0.5, np.pi - 1e-9])]
+    for p in poses:
+        out, problem = _call(fn, p.copy())
+        if problem:
+            todo = "Write it" if problem.startswith("not written") else "Fix it"
+            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            return False
+        got = np.asarray(out, dtype=float)
+        want = pose_from_zup(p)
+        if got.shape != (3,):
+            say(f"{name}: expected a pose of shape (3,), got shape {got.shape}")
+            return False
+        for k, label in enumerate(("x", "y", "heading")):
+            diff = wrap_angle(got[k] - want[k]) if k == 2 else got[k] - want[k]
+            if abs(diff) > 1e-9:
+                hint = " (sign flipped)" if np.isclose(got[k], -want[k]) and want[k] else ""
+                say(f"{name}: {label} is wrong for the z-up pose [{p[0]:.3f}, {p[1]:.3f}, "
+                    f"{p[2]:.3f}]: got {got[k]:.4f}, expected {want[k]:.4f}{hint}.")
+                return False
+        if not -np.pi <= got[2] < np.pi:
+            say(f"{name}: the heading {got[2]:.4f} is right but not wrapped to [-pi, pi).")
+            return False
+    say(f"{name}: correct at {len(poses)} poses, the +-pi seam included.")
     return True
