@@ -14,7 +14,8 @@ import numpy as np
 from matplotlib.patches import Ellipse
 
 __all__ = ["FIGSIZE", "DPI", "world_axes", "plot_world", "plot_covariance_ellipse",
-           "plot_trajectory", "plot_robot", "plot_pose_errors", "covariance_ellipse_params"]
+           "plot_trajectory", "plot_robot", "plot_pose_errors", "covariance_ellipse_params",
+           "plot_frame", "plot_covariance_blocks"]
 
 #: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
 FIGSIZE = (6.4, 4.8)
@@ -40,7 +41,8 @@ def world_axes(ax=None, world=None, *, margin: float = 0.3, title: str | None = 
     """
     if ax is None:
         _, ax = plt.subplots(figsize=FIGSIZE, dpi=DPI)
-    ax.set_aspect("equal", adjustable="datalim")
+    # fixed limits (a world's bounds) need the box to adjust; free limits adjust the data range
+    ax.set_aspect("equal", adjustable="box" if world is not None else "datalim")
     if world is not None:
         xmin, xmax, ymin, ymax = world.bounds
         ax.set_xlim(xmin - margin, xmax + margin)
