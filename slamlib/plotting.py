@@ -15,7 +15,7 @@ from matplotlib.patches import Ellipse
 
 __all__ = ["FIGSIZE", "DPI", "world_axes", "plot_world", "plot_covariance_ellipse",
            "plot_trajectory", "plot_robot", "plot_pose_errors", "covariance_ellipse_params",
-           "plot_frame", "plot_covariance_blocks"]
+           "plot_frame", "plot_covariance_blocks", "plot_trace", "plot_trace_errors"]
 
 #: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
 FIGSIZE = (6.4, 4.8)
@@ -188,3 +188,53 @@ def plot_covariance_blocks(ax, P, n_landmarks: int, *, title: str = "|correlatio
     ax.set_yticks(range(P.shape[0]), labels, fontsize=7)
     ax.set_title(title)
     return im
+
+
+# ------------------------------------------------------------------------- filter runs (Figs. 4-8)
+def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: float = 2.0,
+               show_map: bool = True, title: str | None = None):
+    """Top view of a filter run: truth (red), estimate (blue), ``nsigma`` pose ellipses
+    every ``ellipse_every`` seconds, the true markers (stars) and, for SLAM, the mapped
+    landmarks (plus signs) with their ellipses. The report's Figs. 4, 5 and 7.
+
+    Parameters
+    ----------
+    ax : matplotlib Axes
+        Prepared with :func:`world_axes` (done here if it is not yet inverted).
+    trace : slamlib.experiments.Trace
+    world : World, optional
+        The true markers to draw.
+    """
+    if not ax.yaxis_inverted():
+        world_axes(ax, world)
+    if world is not None:
+        plot_world(ax, world, facing=False)
+    plot_trajectory(ax, trace.truth, style=TRUTH_STYLE)
+    plot_trajectory(ax, trace.x, style=ESTIMATE_STYLE)
+    next_t = trace.t[0]
+    first = True
+    for k in range(trace.t.size):
+        if trace.t[k] >= next_t:
+            plot_covariance_ellipse(ax, trace.x[k], trace.P[k], nsigma,
+                                    label=f"{nsigma:g}-sigma pose ellipse" if first else None)
+            first = False
+            next_t = trace.t[k] + ellipse_every
+    lms = getattr(trace.filter, "landmarks", None)
+    if show_map and lms and hasattr(trace.filter, "landmark_cov"):
+        pts = np.array(list(lms.values()))
+        ax.plot(pts[:, 0], pts[:, 1], "+", color="tab:blue", ms=10, mew=2,
+                label="mapped landmarks", zorder=5)
+        for i in lms:
+            plot_covariance_ellipse(ax, lms[i], trace.filter.landmark_cov(i), nsigma,
+                                    color="tab:blue", alpha=0.25)
+    ax.plot(*trace.truth[0, :2], "o", color="k", ms=5, label="start")
+    ax.legend(loc="best", fontsize=7)
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_trace_errors(trace, *, nsigma: float = 2.0, axes=None, title: str | None = None):
+    """x, y, theta errors of a filter run with its ``nsigma`` bands (the report's Figs. 6, 8)."""
+    return plot_pose_errors(trace.t, trace.error, trace.sigma, nsigma=nsigma, axes=axes,
+                            title=title)
