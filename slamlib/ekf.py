@@ -74,7 +74,8 @@ Cost (what "fast" means here, n = 3 + 2 N state entries)
 
       P <- P - E K^T - K E^T,    E = G - K S / 2
 
-  which is exactly symmetric when computed as ``M = E K^T; P -= M + M^T``.
+  a symmetric rank-4m correction, applied strip by strip so that ``P`` stays
+  bitwise symmetric (``_subtract_symmetric_low_rank``).
 - a new landmark costs O(n): the state lives in preallocated arrays whose
   capacity doubles when it runs out, so adding N landmarks one by one costs
   O(N) reallocations of amortised O(n^2) in total, not one per landmark.
@@ -571,13 +572,12 @@ class _EKFBase:
         S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
         S = 0.5 * (S + S.T)
         cf = cho_factor(S, lower=True)
-        Kt = cho_solve(cf, G.T)                      # K^T = S^-1 H P, 2m x n
+        S_inv = cho_solve(cf, np.eye(2 * m))         # small: 2m x 2m
+        K = G @ S_inv                                # P H^T S^-1, n x 2m
         yv = y.reshape(-1)
-        self._x[:n] += Kt.T @ yv
-        E = G - 0.5 * (Kt.T @ S)                     # Joseph: P - E K^T - K E^T
-        M = E @ Kt
-        M += M.T
-        P[:n, :n] -= M
+        self._x[:n] += K @ yv
+        E = G - 0.5 * (K @ S)                        # Joseph: P - E K^T - K E^T
+        _subtract_symmetric_low_rank(P, n, E, K)
         return float(yv @ cho_solve(cf, yv))
 
     def _augment_cov(self, J1: np.ndarray, J2: np.ndarray, R: np.ndarray) -> None:
@@ -588,6 +588,33 @@ class _EKFBase:
         P[n:n + 2, :n] = PLx
         P[:n, n:n + 2] = PLx.T
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
+
+
+#: Rows per block in :func:`_subtract_symmetric_low_rank` (a block of P stays in cache).
+_BLOCK = 128
+
+
+def _subtract_symmetric_low_rank(P: np.ndarray, n: int, E: np.ndarray, K: np.ndarray) -> None:
+    """``P[:n, :n] -= E K^T + K E^T`` in place, exactly symmetric, O(n^2 m).
+
+    Works down strips of ``_BLOCK`` rows: the strip right of the diagonal is
+    computed once (one n x 4m by 4m x b product) and subtracted from both
+    ``P[I, J]`` and, transposed, ``P[J, I]``, so that a symmetric P stays
+    bitwise symmetric and no n x n temporary is made; the diagonal block is
+    symmetrised. (A plain ``M = E @ K.T; P -= M + M.T`` does the same with an
+    n x n temporary and a cache-hostile transposed pass over it.)
+    """
+    U = np.hstack([E, K])
+    V = np.hstack([K, E])
+    for i0 in range(0, n, _BLOCK):
+        i1 = min(i0 + _BLOCK, n)
+        strip = U[i0:i1] @ V[i0:n].T                 # rows i0:i1, columns i0:n
+        d = strip[:, :i1 - i0]
+        P[i0:i1, i0:i1] -= 0.5 * (d + d.T)
+        if i1 < n:
+            rest = strip[:, i1 - i0:]
+            P[i0:i1, i1:n] -= rest
+            P[i1:n, i0:i1] -= rest.T
 
 
 def _block_diag(R: np.ndarray) -> np.ndarray:
