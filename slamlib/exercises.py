@@ -11,6 +11,7 @@ act on and returns True or False. It never raises on a student's mistake:
 
 Chapter 00: :func:`check_pose_from_zup`.
 Chapter 01: :func:`check_motion_jacobians`.
+Chapter 04: :func:`check_inverse_observation_jacobians`.
 """
 
 from __future__ import annotations
@@ -19,9 +20,9 @@ import numpy as np
 
 from .checks import compare_jacobians, numerical_jacobian
 from .frames import pose_from_zup
-from .models import KOBUKI_WHEEL_BASE, motion_model, wrap_angle
+from .models import KOBUKI_WHEEL_BASE, inverse_observe, motion_model, wrap_angle
 
-__all__ = ["check_pose_from_zup", "check_motion_jacobians"]
+__all__ = ["check_pose_from_zup", "check_motion_jacobians", "check_inverse_observation_jacobians"]
 
 
 def _random_motion_points(n: int, seed: int):
@@ -132,4 +133,84 @@ def check_pose_from_zup(fn, n_points: int = 8, seed: int = 0, verbose: bool = Tr
             say(f"{name}: the heading {got[2]:.4f} is right but not wrapped to [-pi, pi).")
             return False
     say(f"{name}: correct at {len(poses)} poses, the +-pi seam included.")
+    return True
+
+
+# --------------------------------------------------------------------------- chapter 04
+def _random_inverse_observation_points(n: int, seed: int):
+    """Generic poses and readings: no heading on a multiple of pi/4, no bearing near 0."""
+    rng = np.random.default_rng(seed)
+    for _ in range(n):
+        pose = np.array([rng.uniform(-4, 4), rng.uniform(-4, 4), rng.uniform(-np.pi, np.pi)])
+        z = np.array([rng.uniform(0.3, 5.0), rng.uniform(-1.3, 1.3)])
+        yield pose, z
+
+
+def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
+                                        verbose: bool = True) -> bool:
+    """Check a student's ``fn(pose, z) -> (J1, J2)`` against finite differences (chapter 04).
+
+    ``J1 = dg/d pose`` (2x3, columns x, y, theta) and ``J2 = dg/dz`` (2x2,
+    columns rho, beta) of :func:`slamlib.models.inverse_observe` are compared
+    with central differences at ``n_points`` seeded random poses and readings
+    (generic points: a special point such as a heading of pi/2 can hide an error).
+    A J2 that is the transpose of the right one (the report's layout) gets its
+    own hint.
+
+    Returns
+    -------
+    bool
+        True if both Jacobians are right at every point. A verdict is printed.
+    """
+    def say(msg: str) -> None:
+        if verbose:
+            print(msg)
+
+    name = getattr(fn, "__name__", "your function")
+    for i, (pose, z) in enumerate(_random_inverse_observation_points(n_points, seed)):
+        out, problem = _call(fn, pose.copy(), z.copy())
+        if problem:
+            todo = "Write J1 and J2" if problem.startswith("not written") else "Fix it"
+            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            return False
+        try:
+            J1, J2 = out
+        except (TypeError, ValueError):
+            say(f"{name}: expected a pair (J1, J2), got {type(out).__name__}")
+            return False
+        J1_ref = numerical_jacobian(lambda p, z=z: inverse_observe(p, z), pose)
+        J2_ref = numerical_jacobian(lambda q, pose=pose: inverse_observe(pose, q), z)
+        where = (f"at pose = [{pose[0]:.3f}, {pose[1]:.3f}, {pose[2]:.3f}], "
+                 f"z = [{z[0]:.3f}, {z[1]:.3f}]")
+        c1 = compare_jacobians("J1", J1, J1_ref)
+        c2 = compare_jacobians("J2", J2, J2_ref)
+        if c1.ok and c2.ok:
+            continue
+        say(f"{name}: not right yet (test point {i + 1} of {n_points}, {where}).")
+        hints = []
+        if not c1.ok:
+            say("  " + c1.message)
+            if np.shape(J1) == (3, 2):
+                hints.append("J1 has 2 rows (x_F, y_F) and 3 columns (x, y, theta): "
+                             "it looks transposed.")
+            elif any((r, c) == (1, 2) for r, c, *_ in c1.wrong):
+                hints.append("J1[1,2] = d y_F / d theta = ^B x cos(theta) - ^B y sin(theta), "
+                             "where (^B x, ^B y) is the landmark in the robot frame, not the "
+                             "robot's position in N.")
+            else:
+                hints.append("J1 is the derivative of x_B (+) p with respect to the pose "
+                             "[x, y, theta], with p = [rho cos(beta), rho sin(beta)] fixed.")
+        if not c2.ok:
+            say("  " + c2.message)
+            J2_arr = np.asarray(J2, dtype=float) if np.shape(J2) == (2, 2) else None
+            if J2_arr is not None and compare_jacobians("J2^T", J2_arr.T, J2_ref).ok:
+                hints.append("your J2 is transposed: its COLUMNS must be d/d rho and d/d beta "
+                             "(the report stacks them as rows, [d/d rho, d/d theta]^T).")
+            else:
+                hints.append("J2 = R(theta) times the polar Jacobian "
+                             "[[cos b, -rho sin b], [sin b, rho cos b]] (chain rule).")
+        for h in hints:
+            say("  Hint: " + h)
+        return False
+    say(f"{name}: correct. J1 and J2 match finite differences at {n_points} random points.")
     return True
