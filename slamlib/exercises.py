@@ -214,3 +214,70 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
         return False
     say(f"{name}: correct. J1 and J2 match finite differences at {n_points} random points.")
     return True
+
+
+# ============================================================================ chapter 02 (vision)
+# Added by the vision chapter.
+__all__ += ["check_camera_to_range_bearing"]
+
+
+def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
+                                  verbose: bool = True) -> bool:
+    """Check a student's ``fn(p_cam, T_base_cam) -> [rho, bearing]`` (chapter 02).
+
+    ``p_cam`` is a marker centre (3,) in the camera's optical frame and
+    ``T_base_cam`` the 4x4 ``^B T_C``; the answer is the range projected on the
+    floor and the bearing, both from the robot's origin, as
+    :func:`slamlib.vision.camera_to_range_bearing` computes them. Common
+    mistakes (measuring from the camera, a 3-D range, optical axes taken as
+    the robot's, a flipped bearing) are named.
+    """
+    from .vision import camera_to_range_bearing, default_camera
+
+    def say(msg: str) -> None:
+        if verbose:
+            print(msg)
+
+    name = getattr(fn, "__name__", "your function")
+    T = default_camera().T_base_cam
+    rng = np.random.default_rng(seed)
+    pts = [np.array([rng.uniform(-1.0, 1.0), rng.uniform(-0.1, 0.1), rng.uniform(0.5, 4.0)])
+           for _ in range(n_points)]
+    for p in pts:
+        out, problem = _call(fn, p.copy(), T.copy())
+        if problem:
+            todo = "Write it" if problem.startswith("not written") else "Fix it"
+            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            return False
+        try:
+            got = np.asarray(out, dtype=float).reshape(-1)
+        except (TypeError, ValueError):
+            say(f"{name}: expected [rho, bearing], got {out!r}")
+            return False
+        if got.shape != (2,):
+            say(f"{name}: expected [rho, bearing] of shape (2,), got shape {got.shape}")
+            return False
+        want = camera_to_range_bearing(p, T)
+        if np.allclose(got, want, atol=1e-9):
+            continue
+        where = f"for p_cam = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}]"
+        pb = T[:3, :3] @ p + T[:3, 3]
+        hints = []
+        if np.isclose(got[0], np.hypot(p[2], p[0])):
+            hints.append("the range is measured from the camera: add the mount offset "
+                         "(T_base_cam[:3, 3]) to get B's origin")
+        if np.isclose(got[0], np.linalg.norm(pb)):
+            hints.append("the range includes the height: project on the floor, hypot(x_B, y_B)")
+        if np.isclose(got[0], np.hypot(pb[0], pb[2])) or np.isclose(got[0], np.hypot(p[0], p[1])):
+            hints.append("the axes are mixed up: x_B = z_C, y_B = x_C, z_B = y_C")
+        if np.isclose(got[1], -want[1]):
+            hints.append("the bearing's sign is flipped: in the z-down frame a point to the "
+                         "right has a positive bearing, atan2(y_B, x_B)")
+        elif np.isclose(got[1], np.arctan2(p[0], p[2])):
+            hints.append("the bearing is measured from the camera: use the point in B")
+        hint = (" Hint: " + "; ".join(hints) + ".") if hints else ""
+        say(f"{name}: wrong {where}: got [{got[0]:.4f}, {got[1]:.4f}], expected "
+            f"[{want[0]:.4f}, {want[1]:.4f}].{hint}")
+        return False
+    say(f"{name}: correct at {len(pts)} points.")
+    return True

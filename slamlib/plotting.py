@@ -238,3 +238,126 @@ def plot_trace_errors(trace, *, nsigma: float = 2.0, axes=None, title: str | Non
     """x, y, theta errors of a filter run with its ``nsigma`` bands (the report's Figs. 6, 8)."""
     return plot_pose_errors(trace.t, trace.error, trace.sigma, nsigma=nsigma, axes=axes,
                             title=title)
+
+
+# ============================================================================ chapter 02 (vision)
+# Added by the vision chapter: the camera mount (the report's Fig. 2), a camera frame with
+# its detections (Fig. 3) and the error study of the camera pipeline.
+__all__ += ["plot_camera_mount", "plot_camera_view", "plot_error_study"]
+
+
+def _axis_arrow(ax, origin, direction, label, color, length=0.1):
+    o = np.asarray(origin, dtype=float)
+    e = o + length * np.asarray(direction, dtype=float)
+    ax.annotate("", xy=e, xytext=o, arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.6})
+    ax.annotate(label, e, textcoords="offset points", xytext=(3, 3), color=color, fontsize=9)
+
+
+def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height: float = 0.15,
+                      axes=None):
+    """The camera frame C against the robot frame B: top view and side view (report's Fig. 2).
+
+    Top view: x_B to the right, y_B downwards (z-down seen from above). Side
+    view: x_B to the right, z_B downwards, the floor ``base_height`` below B.
+    """
+    from .vision import default_camera
+
+    cam = default_camera() if camera is None else camera
+    T = cam.T_base_cam
+    R, t = T[:3, :3], T[:3, 3]
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(9.0, 4.0), dpi=DPI)
+    top, side = axes
+    # top view (x_B, y_B)
+    top.add_patch(plt.Circle((0, 0), robot_radius, fc="0.9", ec="0.4"))
+    _axis_arrow(top, (0, 0), (1, 0), "$x_B$", "tab:red")
+    _axis_arrow(top, (0, 0), (0, 1), "$y_B$", "tab:green")
+    top.plot(0, 0, "kx")
+    top.annotate("$z_B$ into the page", (0, 0), textcoords="offset points", xytext=(-60, -14),
+                 fontsize=8)
+    _axis_arrow(top, t[:2], R[:2, 2], "$z_C$", "tab:blue", 0.08)
+    _axis_arrow(top, t[:2], R[:2, 0], "$x_C$", "tab:purple", 0.08)
+    top.plot(*t[:2], "o", color="tab:blue", ms=5)
+    top.set_title("top view: B (robot) and C (camera)")
+    top.set_xlim(-0.22, 0.3)
+    top.set_ylim(-0.22, 0.22)
+    top.set_aspect("equal")
+    top.invert_yaxis()
+    top.set_xlabel("$x_B$ (m)")
+    top.set_ylabel("$y_B$ (m), downwards")
+    top.grid(True, lw=0.4, alpha=0.5)
+    # side view (x_B, z_B), z down
+    h = cam.base_height
+    side.axhline(h, color="0.3", lw=2)
+    side.annotate("floor", (-0.2, h), textcoords="offset points", xytext=(0, -12), fontsize=8)
+    side.add_patch(plt.Rectangle((-robot_radius, h - 0.11), 2 * robot_radius, 0.1,
+                                 fc="0.9", ec="0.4"))
+    _axis_arrow(side, (0, 0), (1, 0), "$x_B$", "tab:red")
+    _axis_arrow(side, (0, 0), (0, 1), "$z_B$", "tab:green")
+    _axis_arrow(side, t[[0, 2]], R[[0, 2], 2], "$z_C$", "tab:blue", 0.08)
+    _axis_arrow(side, t[[0, 2]], R[[0, 2], 1], "$y_C$", "tab:orange", 0.08)
+    side.plot(t[0], t[2], "o", color="tab:blue", ms=5)
+    side.axhline(h - marker_height, color="tab:gray", ls=":", lw=1)
+    side.annotate(f"marker centres\n({marker_height:.2f} m up)", (-0.21, h - marker_height),
+                  textcoords="offset points", xytext=(0, 3), fontsize=7, color="tab:gray")
+    side.set_title(f"side view: camera {cam.camera_height:.3f} m above the floor")
+    side.set_xlim(-0.22, 0.42)
+    side.set_ylim(-0.06, h + 0.03)
+    side.set_aspect("equal")
+    side.invert_yaxis()
+    side.set_xlabel("$x_B$ (m)")
+    side.set_ylabel("$z_B$ (m), downwards")
+    side.grid(True, lw=0.4, alpha=0.5)
+    return axes
+
+
+def plot_camera_view(ax, image, *, title: str | None = None):
+    """Show a camera frame (grayscale, or BGR as OpenCV draws) with pixel axes."""
+    img = np.asarray(image)
+    if img.ndim == 3:
+        img = img[..., ::-1]                       # BGR -> RGB
+        ax.imshow(img)
+    else:
+        ax.imshow(img, cmap="gray", vmin=0, vmax=255)
+    ax.set_xlabel("u (px)")
+    ax.set_ylabel("v (px)")
+    if title:
+        ax.set_title(title)
+    return ax
+
+
+def plot_error_study(study, model=None, *, axes=None):
+    """Four panels of an :class:`slamlib.vision.ErrorStudy`: detection rate, range bias,
+    range noise and bearing noise against distance, one line per viewing angle; the fitted
+    :class:`slamlib.vision.NoiseModel` dashed if given."""
+    if axes is None:
+        _, axes = plt.subplots(2, 2, figsize=(9.0, 6.4), dpi=DPI, sharex=True)
+    ax_det, ax_bias, ax_std, ax_b = np.ravel(axes)
+    d = study.distances
+    rate, bias, std = study.detection_rate(), study.range_bias(), study.range_std()
+    bstd = study.bearing_std()
+    for j, a in enumerate(study.angles):
+        lab = f"{np.degrees(a):.0f} deg"
+        ax_det.plot(d, rate[:, j], "o-", ms=3, label=lab)
+        ax_bias.plot(d, 100 * bias[:, j], "o-", ms=3, label=lab)
+        ax_std.plot(d, 100 * std[:, j], "o-", ms=3, label=lab)
+        ax_b.plot(d, np.degrees(bstd[:, j]), "o-", ms=3, label=lab)
+    if model is not None:
+        r = np.linspace(0, d.max(), 100)
+        ax_bias.plot(r, 100 * model.range_bias(r), "k--", lw=1.2,
+                     label=f"{model.bias_coef * 100:.2f} cm/m$^2$ $\\rho^2$")
+        ax_std.plot(r, 100 * model.sigma_range(r), "k--", lw=1.2, label="fitted $\\sigma_\\rho$")
+        ax_b.axhline(np.degrees(model.sigma_bearing), color="k", ls="--", lw=1.2,
+                     label="fitted $\\sigma_\\beta$")
+    ax_det.set_ylabel("detection rate")
+    ax_det.set_ylim(-0.05, 1.05)
+    ax_bias.set_ylabel("range bias (cm)")
+    ax_std.set_ylabel("range std (cm)")
+    ax_b.set_ylabel("bearing std (deg)")
+    for ax in (ax_std, ax_b):
+        ax.set_xlabel("true range (m)")
+    for ax in (ax_det, ax_bias, ax_std, ax_b):
+        ax.grid(True, lw=0.4, alpha=0.5)
+    ax_det.legend(fontsize=7, title="viewing angle", title_fontsize=7)
+    ax_bias.legend(fontsize=7)
+    return axes

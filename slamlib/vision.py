@@ -63,7 +63,7 @@ __all__ = [
     "Detections", "make_detector", "estimate_marker_pose", "detect_markers",
     "CameraMarkerSensor", "match_ground_truth",
     "single_marker_scene", "ErrorStudy", "error_study", "NoiseModel", "fit_noise_model",
-    "DEFAULT_NOISE_MODEL",
+    "DEFAULT_NOISE_MODEL", "draw_detections",
 ]
 
 # --------------------------------------------------------------------------- OpenCV version
@@ -1243,3 +1243,25 @@ def fit_noise_model(study: ErrorStudy, *, corrected: bool = True,
 #: sigma is 0.0043 + 0.0025 rho^2 m (2.7 cm at 3 m); bearing sigma 0.3 mrad (0.017 deg).
 DEFAULT_NOISE_MODEL = NoiseModel(bias_coef=0.0054, sigma_range_a=0.0043, sigma_range_b=0.0025,
                                  sigma_bearing=0.0003, corrected=True)
+
+
+# --------------------------------------------------------------------------- drawing
+def draw_detections(gray, det: Detections, camera: Camera, marker_length: float, *,
+                    axis_length: float | None = None, ids: bool = True) -> np.ndarray:
+    """A BGR copy of ``gray`` with the detected outlines, ids and pose axes drawn.
+
+    Outlines and ids by ``cv2.aruco.drawDetectedMarkers``, each marker's frame
+    by ``cv2.drawFrameAxes`` (x red, y green, z blue, ``axis_length`` m long,
+    default half the marker's side).
+    """
+    img = _as_gray(gray)
+    out = cv2.cvtColor(img, cv2.COLOR_GRAY2BGR)
+    if len(det) == 0:
+        return out
+    corners = [c.reshape(1, 4, 2).astype(np.float32) for c in det.corners]
+    cv2.aruco.drawDetectedMarkers(out, corners,
+                                  det.ids.reshape(-1, 1).astype(np.int32) if ids else None)
+    length = 0.5 * marker_length if axis_length is None else axis_length
+    for r, t in zip(det.rvecs, det.tvecs):
+        cv2.drawFrameAxes(out, camera.K, camera.dist_coeffs, r, t, length, 2)
+    return out
