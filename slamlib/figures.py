@@ -1,0 +1,223 @@
+"""Every figure of the report and of the course, as files: ``python -m slamlib.figures OUTDIR``.
+
+``make figures`` calls this. Each figure is written as PNG and PDF under the
+report's numbering (``fig4_prediction_only.png``...) or a ``course_`` name,
+from the recorded runs in ``data/runs`` and fixed seeds, so the files are the
+same byte for byte on every run with the same library versions. A table of
+each filter run's metrics is printed at the end.
+
+The figures are drawn by the same functions the chapters call
+(:mod:`slamlib.plotting`, :mod:`slamlib.experiments`); nothing here computes
+anything a chapter does not.
+"""
+
+from __future__ import annotations
+
+import argparse
+import sys
+from collections.abc import Callable
+from pathlib import Path
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from . import experiments, plotting  # noqa: E402
+from .runs import load_run  # noqa: E402
+
+__all__ = ["FIGURES", "make_figures", "save_figure", "main"]
+
+#: Metadata that would change from run to run is left out of the files.
+PNG_METADATA = {"Software": None}
+PDF_METADATA = {"CreationDate": None, "ModDate": None, "Producer": None, "Creator": None}
+
+
+def save_figure(fig, out: Path, name: str, dpi: int = 150) -> list[Path]:
+    """Write ``fig`` as ``name.png`` and ``name.pdf`` in ``out``, reproducibly."""
+    out.mkdir(parents=True, exist_ok=True)
+    png, pdf = out / f"{name}.png", out / f"{name}.pdf"
+    fig.savefig(png, dpi=dpi, metadata=PNG_METADATA)
+    fig.savefig(pdf, metadata=PDF_METADATA)
+    plt.close(fig)
+    return [png, pdf]
+
+
+class _Context:
+    """Runs and traces computed once and shared by the figures that need them."""
+
+    def __init__(self):
+        self._cache: dict = {}
+        self.metrics: list[tuple[str, dict]] = []
+
+    def get(self, key: str, make: Callable):
+        if key not in self._cache:
+            self._cache[key] = make()
+        return self._cache[key]
+
+    def run(self, name: str):
+        return self.get(f"run:{name}", lambda: load_run(name))
+
+    def trace(self, label: str, run_name: str, method: str, **kw):
+        def make():
+            run = self.run(run_name)
+            tr = getattr(experiments, method)(run, **kw)
+            self.metrics.append((label, tr.metrics(run.world())))
+            return tr
+        return self.get(f"trace:{label}", make)
+
+
+# --------------------------------------------------------------------------- the report's figures
+def fig2_camera_to_robot(ctx: _Context):
+    from .vision import default_camera
+    return plotting.plot_camera_mounting(default_camera())
+
+
+def fig3_feature_detection(ctx: _Context):
+    from .vision import default_camera
+    run = ctx.run("arena_loop")
+    return plotting.plot_detections_view(run.world(), run.truth[0], default_camera())
+
+
+def fig4_prediction_only(ctx: _Context):
+    run = ctx.run("arena_loop")
+    tr = ctx.trace("arena_loop: dead reckoning", "arena_loop", "dead_reckoning")
+    ax = plotting.world_axes(world=run.world())
+    plotting.plot_trace(ax, tr, run.world(), title="Fig. 4: prediction only (dead reckoning)")
+    return ax.figure
+
+
+def fig5_map_based_ekf(ctx: _Context):
+    run = ctx.run("arena_loop")
+    tr = ctx.trace("arena_loop: map-based EKF", "arena_loop", "localization")
+    ax = plotting.world_axes(world=run.world())
+    plotting.plot_trace(ax, tr, run.world(), title="Fig. 5: map-based EKF")
+    return ax.figure
+
+
+def fig6_map_based_ekf_errors(ctx: _Context):
+    tr = ctx.trace("arena_loop: map-based EKF", "arena_loop", "localization")
+    fig, _ = plotting.plot_trace_errors(tr, title="Fig. 6: map-based EKF errors, 2-sigma bounds")
+    return fig
+
+
+def fig7_slam(ctx: _Context):
+    run = ctx.run("arena_loop")
+    tr = ctx.trace("arena_loop: EKF SLAM", "arena_loop", "slam")
+    ax = plotting.world_axes(world=run.world())
+    plotting.plot_trace(ax, tr, run.world(), title="Fig. 7: EKF SLAM with gating")
+    return ax.figure
+
+
+def fig8_slam_errors(ctx: _Context):
+    tr = ctx.trace("arena_loop: EKF SLAM", "arena_loop", "slam")
+    fig, _ = plotting.plot_trace_errors(tr, title="Fig. 8: EKF SLAM errors, 2-sigma bounds")
+    return fig
+
+
+# --------------------------------------------------------------------------- the course's own
+def _gating_label(gate: float | None) -> str:
+    return "no gating" if gate is None else f"chi-square gate {gate:g}"
+
+
+def _misreads_slam(ctx: _Context, gate: float | None):
+    return ctx.trace(f"arena_loop_misreads: SLAM, {_gating_label(gate)}", "arena_loop_misreads",
+                     "slam", gate=gate)
+
+
+def course_gating_misreads(ctx: _Context):
+    run = ctx.run("arena_loop_misreads")
+    world = run.world()
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), dpi=plotting.DPI)
+    for ax, gate in zip(axes, (None, 0.95)):
+        tr = _misreads_slam(ctx, gate)
+        label = _gating_label(gate)
+        plotting.world_axes(ax, world)
+        plotting.plot_trace(ax, tr, world, ellipse_every=1e9, show_map=True,
+                            title=f"misread ids, {label}: ATE {tr.metrics()['ate_xy']:.2f} m")
+    fig.tight_layout()
+    return fig
+
+
+def course_gating_errors(ctx: _Context):
+    fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=plotting.DPI)
+    for gate, color in ((None, "tab:red"), (0.95, "tab:blue")):
+        tr = _misreads_slam(ctx, gate)
+        ax.plot(tr.t, np.hypot(tr.error[:, 0], tr.error[:, 1]), color=color,
+                label=_gating_label(gate))
+    ax.set_xlabel("t (s)")
+    ax.set_ylabel("position error (m)")
+    ax.set_title("SLAM with misread ids: position error")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    ax.legend()
+    fig.tight_layout()
+    return fig
+
+
+def course_random_world_slam(ctx: _Context):
+    run = ctx.run("random_loop")
+    tr = ctx.trace("random_loop: EKF SLAM", "random_loop", "slam")
+    ax = plotting.world_axes(world=run.world())
+    plotting.plot_trace(ax, tr, run.world(), title="EKF SLAM in a random marker world")
+    return ax.figure
+
+
+#: name -> function(ctx) -> Figure, in the order they are made.
+FIGURES: dict[str, Callable] = {
+    "fig2_camera_to_robot": fig2_camera_to_robot,
+    "fig3_feature_detection": fig3_feature_detection,
+    "fig4_prediction_only": fig4_prediction_only,
+    "fig5_map_based_ekf": fig5_map_based_ekf,
+    "fig6_map_based_ekf_errors": fig6_map_based_ekf_errors,
+    "fig7_slam": fig7_slam,
+    "fig8_slam_errors": fig8_slam_errors,
+    "course_gating_misreads": course_gating_misreads,
+    "course_gating_errors": course_gating_errors,
+    "course_random_world_slam": course_random_world_slam,
+}
+
+
+def metrics_table(rows: list[tuple[str, dict]]) -> str:
+    """The printed table: one line per filter run."""
+    head = (f"{'run':<48} {'ATE xy (m)':>10} {'ATE th (rad)':>12} {'mean NEES':>10} "
+            f"{'landmarks':>9} {'map RMSE (m)':>12}")
+    lines = [head, "-" * len(head)]
+    for label, m in rows:
+        lm = f"{m['landmarks']:.0f}" if "landmarks" in m else "-"
+        me = f"{m['map_rmse']:.3f}" if "map_rmse" in m else "-"
+        lines.append(f"{label:<48} {m['ate_xy']:>10.3f} {m['ate_theta']:>12.4f} "
+                     f"{m['mean_nees']:>10.2f} {lm:>9} {me:>12}")
+    return "\n".join(lines)
+
+
+def make_figures(out: Path, only: list[str] | None = None) -> list[tuple[str, dict]]:
+    """Write the figures (all, or those named in ``only``) into ``out``; return the metrics."""
+    names = list(FIGURES) if not only else only
+    unknown = [n for n in names if n not in FIGURES]
+    if unknown:
+        raise ValueError(f"only: unknown figure(s) {unknown}; known: {list(FIGURES)}")
+    plt.rcParams.update({"figure.dpi": plotting.DPI, "savefig.bbox": "standard"})
+    ctx = _Context()
+    for name in names:
+        files = save_figure(FIGURES[name](ctx), out, name)
+        print(f"wrote {files[0]} and .pdf")
+    return ctx.metrics
+
+
+def main(argv: list[str] | None = None) -> int:
+    ap = argparse.ArgumentParser(prog="python -m slamlib.figures",
+                                 description=__doc__.split("\n")[0])
+    ap.add_argument("out", type=Path, help="output folder (created)")
+    ap.add_argument("--only", nargs="*", help="figure names (default: all)")
+    args = ap.parse_args(argv)
+    rows = make_figures(args.out, args.only)
+    if rows:
+        print()
+        print(metrics_table(rows))
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
