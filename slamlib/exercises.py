@@ -12,6 +12,7 @@ act on and returns True or False. It never raises on a student's mistake:
 Chapter 00: :func:`check_pose_from_zup`.
 Chapter 01: :func:`check_motion_jacobians`.
 Chapter 04: :func:`check_inverse_observation_jacobians`.
+Appendix A: :func:`check_numerical_jacobian`.
 """
 
 from __future__ import annotations
@@ -280,4 +281,59 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
             f"[{want[0]:.4f}, {want[1]:.4f}].{hint}")
         return False
     say(f"{name}: correct at {len(pts)} points.")
+    return True
+
+
+# --------------------------------------------------------------------------- appendix A
+__all__ += ["check_numerical_jacobian"]
+
+
+def check_numerical_jacobian(fn, verbose: bool = True) -> bool:
+    """Check a student's ``fn(f, x) -> J`` (a finite-difference Jacobian, appendix A).
+
+    It is tried on functions whose Jacobians are known in closed form: a
+    linear map (3 -> 2), a nonlinear one (3 -> 3) and the range-bearing of a
+    point; the answer must have shape (outputs, inputs) and be within 1e-5.
+    """
+    def say(msg: str) -> None:
+        if verbose:
+            print(msg)
+
+    name = getattr(fn, "__name__", "your function")
+    M = np.array([[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]])
+    cases = [
+        ("a linear map", lambda x: M @ x, np.array([0.3, -1.2, 2.0]), lambda x: M),
+        ("a nonlinear map", lambda x: np.array([x[0] * x[1], np.sin(x[2]), x[0] ** 2 * x[2]]),
+         np.array([0.7, -0.4, 1.1]),
+         lambda x: np.array([[x[1], x[0], 0.0], [0.0, 0.0, np.cos(x[2])],
+                             [2 * x[0] * x[2], 0.0, x[0] ** 2]])),
+        ("range and bearing of a point",
+         lambda p: np.array([np.hypot(*p), np.arctan2(p[1], p[0])]),
+         np.array([1.5, -0.8]),
+         lambda p: np.array([[p[0], p[1]] / np.hypot(*p),
+                             [-p[1] / (p @ p), p[0] / (p @ p)]])),
+    ]
+    for label, f, x, exact in cases:
+        out, problem = _call(fn, f, x.copy())
+        if problem:
+            todo = "Write it" if problem.startswith("not written") else "Fix it"
+            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            return False
+        J = np.asarray(out, dtype=float)
+        Je = exact(x)
+        if J.shape != Je.shape:
+            transposed = J.shape == Je.T.shape
+            hint = " (transposed: rows are outputs, columns inputs)" if transposed else ""
+            say(f"{name}: for {label} expected shape {Je.shape}, got {J.shape}{hint}.")
+            return False
+        err = float(np.max(np.abs(J - Je)))
+        if err > 1e-5:
+            c = compare_jacobians("J", J, Je, atol=1e-5, rtol=1e-5)
+            hint = ""
+            if err < 1e-3:
+                hint = (" The error is small but too large: a one-sided difference is only "
+                        "first-order accurate; use central differences.")
+            say(f"{name}: wrong for {label} (largest error {err:.2e}). {c.message}.{hint}")
+            return False
+    say(f"{name}: correct on {len(cases)} functions with known Jacobians.")
     return True
