@@ -32,7 +32,8 @@ from .models import (
 __all__ = [
     "printed_A", "printed_W", "printed_H_pose", "printed_H_landmark", "printed_H_pose_slam",
     "printed_J1", "printed_J2", "printed_innovation", "printed_mahalanobis2",
-    "Erratum", "ErratumEvidence", "ERRATA", "CHECK_POSE", "CHECK_LANDMARK", "CHECK_Z",
+    "Erratum", "ErratumEvidence", "ERRATA", "CORRECT_AS_PRINTED", "TextErratum", "TEXT_ERRATA",
+    "CHECK_POSE", "CHECK_LANDMARK", "CHECK_Z",
 ]
 
 #: The point at which the errata are checked: a generic pose and landmark (no
@@ -243,4 +244,32 @@ ERRATA: tuple[Erratum, ...] = (
 CORRECT_AS_PRINTED: tuple[Erratum, ...] = (
     Erratum("A_k", "III.C", "01", "correct", "A_k", "A_k (derivative w.r.t. x_{k-1})", _check_A),
     Erratum("W_k", "III.C", "01", "correct", "W_k", "W_k", _check_W),
+)
+
+
+@dataclass(frozen=True)
+class TextErratum:
+    """An error of notation that no number can exercise (a symbol, a label, a form)."""
+
+    section: str
+    chapter: str
+    printed: str
+    corrected: str
+
+
+TEXT_ERRATA: tuple[TextErratum, ...] = (
+    TextErratum("III.B", "01", "w = (V_L - V_R) / h",
+                "w = (V_L - V_R) / b: h is not defined; b is the wheel base"),
+    TextErratum("III.C", "01", "A_k = d f / d x_k",
+                "A_k = d f / d x_{k-1}: the derivative is taken at the previous pose"),
+    TextErratum("V.A", "03", "z_k = [rho, theta] described with an elevation angle phi and a "
+                "feature coordinate z_f",
+                "the observation and the feature are planar: z = [rho, beta], x_F = [x_F, y_F]"),
+    TextErratum("V.B", "04", "x_B (+) p = [x_B, y_B, 1]^T + R [x, y, 1]^T",
+                "in homogeneous form x_B (+) p = T [x, y, 1]^T with T = [[R, t], [0, 1]]; "
+                "the sum as printed gives 2 in the third component"),
+    TextErratum("V.C eq. (5)", "05", "P_k = (I - K_k H_k) P_{k|k-1}",
+                "right in exact arithmetic, but it loses symmetry and positive definiteness "
+                "to rounding; the Joseph form (I-KH) P (I-KH)^T + K R K^T, or P - K S K^T "
+                "symmetrised, keeps them"),
 )
