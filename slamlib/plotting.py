@@ -361,3 +361,59 @@ def plot_error_study(study, model=None, *, axes=None):
     ax_det.legend(fontsize=7, title="viewing angle", title_fontsize=7)
     ax_bias.legend(fontsize=7)
     return axes
+
+
+# ------------------------------------------------------------------ consistency bands (chapter 03)
+# Added by the chapter on the map-based EKF (NIS and NEES against chi-square bands).
+__all__ += ["chi2_band_per_sample", "plot_chi2_series"]
+
+
+def chi2_band_per_sample(dof, prob: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
+    """Two-sided ``prob`` band of ONE chi-square sample with ``dof`` degrees of freedom.
+
+    ``(chi2.ppf((1-prob)/2, dof), chi2.ppf((1+prob)/2, dof))``, elementwise for an
+    array of ``dof`` (e.g. a joint NIS with 2m degrees of freedom, m varying).
+    """
+    from scipy.stats import chi2
+
+    dof = np.asarray(dof, dtype=float)
+    if not 0.0 < prob < 1.0:
+        raise ValueError(f"prob: expected a probability in (0, 1), got {prob}")
+    if np.any(dof <= 0) or not np.all(np.isfinite(dof)):
+        raise ValueError("dof: expected positive degrees of freedom")
+    return chi2.ppf(0.5 * (1.0 - prob), dof), chi2.ppf(0.5 * (1.0 + prob), dof)
+
+
+def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = False,
+                     label: str = "value", color: str = "tab:blue", ms: float = 3.0,
+                     band_label: str | None = None) -> float:
+    """Chi-square distributed values (NIS, NEES, d2) against time, with the ``prob`` band.
+
+    Each value is one sample of a chi-square with its ``dof`` (a scalar or one
+    per value). The band of a single sample (:func:`chi2_band_per_sample`) is
+    drawn in gold, values outside it in red; with ``per_dof`` the values and
+    the band are divided by ``dof`` (so that updates with different numbers of
+    readings share one axis). The y axis is logarithmic.
+
+    Returns
+    -------
+    float
+        The fraction of the values outside the band (``1 - prob`` expected for
+        independent samples of a consistent filter).
+    """
+    t = np.asarray(t, dtype=float)
+    v = np.asarray(values, dtype=float)
+    d = np.broadcast_to(np.asarray(dof, dtype=float), v.shape)
+    if t.shape != v.shape:
+        raise ValueError(f"t, values: expected equal shapes, got {t.shape} and {v.shape}")
+    lo, hi = chi2_band_per_sample(d, prob)
+    scale = d if per_dof else np.ones_like(d)
+    out = (v < lo) | (v > hi)
+    ax.fill_between(t, lo / scale, hi / scale, step="mid", color="gold", alpha=0.45, lw=0,
+                    label=band_label or f"{100 * prob:g}% band of one sample")
+    ax.plot(t[~out], v[~out] / scale[~out], ".", ms=ms, color=color, label=label)
+    ax.plot(t[out], v[out] / scale[out], ".", ms=ms + 1, color="tab:red",
+            label=f"outside ({np.mean(out):.1%})")
+    ax.set_yscale("log")
+    ax.grid(True, lw=0.4, alpha=0.5)
+    return float(np.mean(out)) if v.size else float("nan")
