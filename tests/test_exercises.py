@@ -194,3 +194,125 @@ def test_observation_checker_never_raises(capsys):
 
     assert check_observation_jacobians(transposed) is False
     assert "transposed" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------- chapter 05
+def _gate_answer(z, z_pred, S, prob, *, wrap=True, inverse=True, dof=2):
+    """An answer written out independently of the checker, with switchable mistakes."""
+    from scipy.stats import chi2
+
+    y = np.asarray(z, float) - np.asarray(z_pred, float)
+    if wrap:
+        y[1] = np.arctan2(np.sin(y[1]), np.cos(y[1]))
+    M = np.linalg.inv(S) if inverse else np.asarray(S)
+    d2 = float(y @ M @ y)
+    return d2, d2 < chi2.ppf(prob, dof)
+
+
+def test_gate_checker_accepts_a_right_answer(capsys):
+    from slamlib.exercises import check_gate
+
+    assert check_gate(lambda z, zp, S, p: _gate_answer(z, zp, S, p)) is True
+    assert "correct" in capsys.readouterr().out
+
+
+def test_gate_checker_accepts_the_closed_form_threshold(capsys):
+    from slamlib.exercises import check_gate
+
+    def mine(z, z_pred, S, prob):
+        d2, _ = _gate_answer(z, z_pred, S, prob)
+        return np.float64(d2), np.bool_(d2 < -2.0 * np.log(1.0 - prob))
+
+    assert check_gate(mine) is True
+
+
+def test_gate_checker_agrees_with_the_library_filter_gate():
+    # the library's EKF decides the same way: its gate_threshold and wrap_angle
+    from slamlib.ekf import gate_threshold
+    from slamlib.exercises import check_gate
+    from slamlib.models import wrap_angle
+
+    def library(z, z_pred, S, prob):
+        y = np.array([z[0] - z_pred[0], wrap_angle(z[1] - z_pred[1])])
+        d2 = float(y @ np.linalg.solve(S, y))
+        return d2, d2 < gate_threshold(prob)
+
+    assert check_gate(library, verbose=False) is True
+
+
+@pytest.mark.parametrize("stub", [lambda *a: None, "raise"])
+def test_gate_checker_says_not_written_yet(capsys, stub):
+    from slamlib.exercises import check_gate
+
+    def raising(*a):
+        raise NotImplementedError
+
+    assert check_gate(raising if stub == "raise" else stub) is False
+    assert "not written yet" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("mistake, words", [
+    ({"wrap": False}, "not wrapped"),
+    ({"inverse": False}, "uses S where S^-1 belongs"),
+    ({"dof": 1}, "chi2.ppf(prob, 1)"),
+])
+def test_gate_checker_names_the_mistake(capsys, mistake, words):
+    from slamlib.exercises import check_gate
+
+    assert check_gate(lambda z, zp, S, p: _gate_answer(z, zp, S, p, **mistake)) is False
+    out = capsys.readouterr().out
+    assert words in out
+
+
+def test_gate_checker_finds_the_report_eq6(capsys):
+    from slamlib.exercises import check_gate
+    from slamlib.report import printed_mahalanobis2
+
+    def report(z, z_pred, S, prob):
+        y = np.array([z[0] - z_pred[0], np.arctan2(np.sin(z[1] - z_pred[1]),
+                                                   np.cos(z[1] - z_pred[1]))])
+        d2 = printed_mahalanobis2(y, z_pred, S)
+        return d2, d2 < 5.991
+
+    assert check_gate(report) is False
+    assert "eq. (6)" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("threshold, words", [
+    (lambda p: p, "probability itself"),
+    (lambda p: 5.991, "fixed at 5.99"),
+    (lambda p: -2.0 * np.log(p), "1 - prob"),
+])
+def test_gate_checker_names_a_wrong_threshold(capsys, threshold, words):
+    from slamlib.exercises import check_gate
+
+    def mine(z, z_pred, S, prob):
+        d2, _ = _gate_answer(z, z_pred, S, prob)
+        return d2, d2 < threshold(prob)
+
+    assert check_gate(mine) is False
+    out = capsys.readouterr().out
+    assert "wrong decision" in out and words in out
+
+
+def test_gate_checker_rejects_a_wrong_shape_without_raising(capsys):
+    from slamlib.exercises import check_gate
+
+    assert check_gate(lambda *a: 3.0) is False
+    assert check_gate(lambda *a: (np.ones(2), True)) is False
+    assert "pair (d2, accept)" in capsys.readouterr().out
+
+
+def test_gate_checker_cases_cross_the_seam_and_straddle_the_gate():
+    # the checker must exercise what it claims: wrapping matters, both decisions occur
+    from scipy.stats import chi2
+
+    from slamlib.exercises import _random_gate_cases
+
+    cases = list(_random_gate_cases(20, 5))
+    seam = [abs(z[1] - zp[1]) > np.pi for z, zp, _, _ in cases]
+    inside = [_gate_answer(z, zp, S, p)[1] for z, zp, S, p in cases]
+    assert sum(seam) >= 5
+    assert 5 <= sum(inside) <= 15
+    assert len({p for *_, p in cases}) >= 4
+    assert all(chi2.ppf(p, 2) > 0 for *_, p in cases)
