@@ -126,9 +126,9 @@ def test_controller_respects_limits():
     u, dt = run.controls()
     v = 0.5 * (u[:, 0] + u[:, 1])
     w = (u[:, 1] - u[:, 0]) / 0.23
-    slack = 2 * TICK / dt / 0.23          # quantisation of a speed from ticks
-    assert np.all(np.abs(v) <= 0.2 + slack)
-    assert np.all(np.abs(w) <= 0.7 + 2 * slack / 0.23 * 0.23)
+    # a wheel speed from ticks is off by less than one tick per period
+    assert np.all(np.abs(v) <= 0.2 + TICK / dt)
+    assert np.all(np.abs(w) <= 0.7 + 2 * TICK / dt / 0.23)
     for wp in arena_loop_waypoints():
         assert np.min(np.hypot(*(run.truth[:, :2] - wp).T)) <= ctl.tolerance + 1e-3
 
