@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg
 
-.PHONY: venv figures test lint unit nbval notebooks student lab bench clean
+.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean
 
 venv: $(STAMP)
 
@@ -39,6 +39,10 @@ notebooks: $(STAMP)
 ## Student edition: notebooks with the solutions emptied, into student/
 student: $(STAMP)
 	$(PY) tools/make_student.py notebooks student
+
+## Regenerate the recorded runs in data/runs (bit for bit the same for the same code)
+runs: $(STAMP)
+	$(PY) tools/make_runs.py
 
 ## Open the course in JupyterLab on localhost
 lab: $(STAMP)

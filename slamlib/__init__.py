@@ -1,10 +1,24 @@
 """slamlib: the library of the course on feature-based EKF SLAM with ArUco markers.
 
-Modules (one idea each):
+One module per idea:
 
-- ``validate``  input checks that name the bad argument
-- ``models``    wheels, motion, direct and inverse observation, compounding, with Jacobians
-- ``frames``    z-up (ROS) data into the course's z-down frame
+- ``validate``     input checks whose errors name the bad argument
+- ``models``       wheels, motion, direct and inverse observation, compounding, with Jacobians
+- ``frames``       z-up (ROS) data into the course's z-down frame
+- ``checks``       finite-difference Jacobians and entry-by-entry comparison
+- ``report``       the report's equations as printed, and the checks that expose its errors
+- ``worlds``       marker worlds (JSON): the report's arena and random ones
+- ``sim``          the simulated Kobuki: controller, wheels, encoders
+- ``sensors``      the analytic marker sensor and the readings' type
+- ``vision``       the camera: rendering, ArUco detection, pose, range and bearing
+- ``runs``         recorded runs (CSV + JSON) and their events
+- ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
+- ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
+- ``metrics``      NEES, NIS, chi-square bands, trajectory error
+- ``experiments``  a filter driven over a run, with its trace
+- ``plotting``     the chapters' figures (top views are z-down seen from above)
+- ``exercises``    the exercise checkers
+- ``figures``      ``python -m slamlib.figures OUT``: every figure as files
 """
 
 __version__ = "0.1.0"
