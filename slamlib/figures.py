@@ -72,13 +72,33 @@ class _Context:
 # --------------------------------------------------------------------------- the report's figures
 def fig2_camera_to_robot(ctx: _Context):
     from .vision import default_camera
-    return plotting.plot_camera_mounting(default_camera())
+    axes = plotting.plot_camera_mount(default_camera())
+    fig = np.ravel(axes)[0].figure
+    fig.suptitle("Fig. 2: the camera frame C and the robot frame B")
+    fig.tight_layout()
+    return fig
 
 
 def fig3_feature_detection(ctx: _Context):
     from .vision import default_camera
-    run = ctx.run("arena_loop")
-    return plotting.plot_detections_view(run.world(), run.truth[0], default_camera())
+    world = ctx.run("arena_loop").world()
+    fig, _ = plotting.plot_detection_scene(world, world.start_pose, default_camera(),
+                                           rng=np.random.default_rng(2))
+    fig.axes[0].set_title("Fig. 3: the camera's view from the start pose, markers detected")
+    return fig
+
+
+def course_vision_error_study(ctx: _Context):
+    from . import vision
+    study = vision.error_study(distances=(0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
+                               angles_deg=(0.0, 15.0, 30.0, 45.0, 60.0, 75.0), samples=20,
+                               seed=1)
+    model = vision.fit_noise_model(study, max_angle_deg=60)
+    axes = plotting.plot_error_study(study, model)
+    fig = np.ravel(axes)[0].figure
+    fig.suptitle("Camera pipeline against ground truth (0.15 m markers, 640x480, f = 525 px)")
+    fig.tight_layout()
+    return fig
 
 
 def fig4_prediction_only(ctx: _Context):
@@ -176,6 +196,7 @@ FIGURES: dict[str, Callable] = {
     "course_gating_misreads": course_gating_misreads,
     "course_gating_errors": course_gating_errors,
     "course_random_world_slam": course_random_world_slam,
+    "course_vision_error_study": course_vision_error_study,
 }
 
 

@@ -15,7 +15,8 @@ from matplotlib.patches import Ellipse
 
 __all__ = ["FIGSIZE", "DPI", "world_axes", "plot_world", "plot_covariance_ellipse",
            "plot_trajectory", "plot_robot", "plot_pose_errors", "covariance_ellipse_params",
-           "plot_frame", "plot_covariance_blocks", "plot_trace", "plot_trace_errors"]
+           "plot_frame", "plot_covariance_blocks", "plot_trace", "plot_trace_errors",
+           "plot_detection_scene"]
 
 #: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
 FIGSIZE = (6.4, 4.8)
@@ -417,3 +418,34 @@ def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = 
     ax.set_yscale("log")
     ax.grid(True, lw=0.4, alpha=0.5)
     return float(np.mean(out)) if v.size else float("nan")
+
+
+def plot_detection_scene(world, pose, camera, *, rng=None):
+    """The report's Fig. 3: the camera's rendered view from ``pose`` with the detected
+    markers, their ids and pose axes drawn, beside a top view with the field of view.
+
+    Returns
+    -------
+    (Figure, slamlib.vision.Detections)
+    """
+    from .models import compose_point
+    from .vision import detect_markers, draw_detections, render_view
+
+    pose = np.asarray(pose, dtype=float)
+    gray = render_view(world, pose, camera, rng=rng)
+    det = detect_markers(gray, camera, world.marker_length, world.dictionary)
+    fig = plt.figure(figsize=(11, 4.4), dpi=DPI)
+    ax_img = fig.add_axes([0.02, 0.08, 0.58, 0.84])
+    plot_camera_view(ax_img, draw_detections(gray, det, camera, world.marker_length),
+                     title="camera view, detections and marker axes")
+    ax_top = fig.add_axes([0.64, 0.1, 0.34, 0.82])
+    world_axes(ax_top, world)
+    plot_world(ax_top, world, facing=True)
+    plot_robot(ax_top, pose, size=0.25)
+    cam_xy = compose_point(pose, camera.T_base_cam[:2, 3])
+    for side in (-1, 1):
+        a = pose[2] + side * camera.hfov / 2
+        ax_top.plot([cam_xy[0], cam_xy[0] + 4 * np.cos(a)],
+                    [cam_xy[1], cam_xy[1] + 4 * np.sin(a)], "g--", lw=0.8)
+    ax_top.set_title("top view (y down), field of view")
+    return fig, det
