@@ -98,7 +98,6 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
-from scipy.linalg import cho_factor, cho_solve
 
 from .models import (
     KOBUKI_WHEEL_BASE,
@@ -306,16 +305,29 @@ def _as_readings(z, k: int) -> np.ndarray:
 
 
 def _as_reading_noise(R, default: np.ndarray, k: int) -> np.ndarray:
+    """R as (k, 2, 2): one matrix for all readings or one per reading, each checked."""
     if R is None:
         return np.broadcast_to(default, (k, 2, 2))
-    a = np.asarray(R, dtype=float) if not isinstance(R, np.ndarray) else R
+    try:
+        a = np.asarray(R, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"R: expected a (2, 2) or ({k}, 2, 2) array, got {R!r}") from exc
     if a.ndim == 2:
-        one = as_covariance("R", a, 2)
-        return np.broadcast_to(one, (k, 2, 2))
+        return np.broadcast_to(as_covariance("R", a, 2), (k, 2, 2))
     if a.ndim != 3 or a.shape != (k, 2, 2):
         raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
-                         f"got {np.shape(R)}")
-    return np.stack([as_covariance(f"R[{i}]", a[i], 2) for i in range(k)]) if k else a
+                         f"got {a.shape}")
+    # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
+    finite = np.all(np.isfinite(a), axis=(1, 2))
+    scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
+    sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
+    pd = (a[:, 0, 0] > 0.0) & (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0)
+    bad = np.flatnonzero(~(finite & sym & pd))
+    if bad.size:
+        i = int(bad[0])
+        as_covariance(f"R[{i}]", a[i], 2)     # raises with the precise reason
+        raise ValueError(f"R[{i}]: expected a positive-definite matrix")  # pragma: no cover
+    return 0.5 * (a + a.transpose(0, 2, 1))
 
 
 def _as_landmark_map(landmarks) -> dict[int, np.ndarray]:
@@ -397,11 +409,8 @@ class _EKFBase:
         ``x_B <- f(x_B, u)``, ``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``;
         the landmarks do not move.
         """
-        u = as_vector("u", u, 2)
-        dt = as_finite_scalar("dt", dt)
-        if dt < 0.0:
-            raise ValueError(f"dt: expected a non-negative time step, got {dt}")
         pose = self._x[:3]
+        # motion_jacobians checks u and dt (ValueError naming them) before anything changes
         A, W = motion_jacobians(pose, u, dt, self.wheel_base)
         new_pose = motion_model(pose, u, dt, self.wheel_base)
         self._predict_cov(A, W)
@@ -571,14 +580,13 @@ class _EKFBase:
         G = P[:n, cols] @ Hc.T                       # P H^T, n x 2m
         S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
         S = 0.5 * (S + S.T)
-        cf = cho_factor(S, lower=True)
-        S_inv = cho_solve(cf, np.eye(2 * m))         # small: 2m x 2m
+        S_inv = np.linalg.inv(S)                     # small: 2m x 2m
         K = G @ S_inv                                # P H^T S^-1, n x 2m
         yv = y.reshape(-1)
         self._x[:n] += K @ yv
         E = G - 0.5 * (K @ S)                        # Joseph: P - E K^T - K E^T
         _subtract_symmetric_low_rank(P, n, E, K)
-        return float(yv @ cho_solve(cf, yv))
+        return float(yv @ S_inv @ yv)
 
     def _augment_cov(self, J1: np.ndarray, J2: np.ndarray, R: np.ndarray) -> None:
         """Fill the new landmark's rows and columns (storage already reserved): O(n)."""
