@@ -462,3 +462,46 @@ def test_the_map_accepts_numpy_ids_and_is_copied():
     pos[0] = 9.0
     np.testing.assert_array_equal(f.landmarks[3], [1.0, 2.0])
     assert f.landmark_ids == [3]
+
+
+# --------------------------------------------------------------------------- the blocked algebra
+@pytest.mark.parametrize("n", [1, 5, 127, 128, 129, 300])
+def test_blocked_symmetric_correction_equals_the_formula(n):
+    from slamlib.ekf import _subtract_symmetric_low_rank
+    rng = np.random.default_rng(n)
+    A = rng.normal(size=(n, n))
+    P = A + A.T
+    E, K = rng.normal(size=(n, 4)), rng.normal(size=(n, 4))
+    want = P - E @ K.T - K @ E.T
+    big = np.zeros((n + 7, n + 7))               # the active block of a larger storage
+    big[:n, :n] = P
+    _subtract_symmetric_low_rank(big, n, E, K)
+    np.testing.assert_allclose(big[:n, :n], want, atol=1e-12)
+    assert np.array_equal(big[:n, :n], big[:n, :n].T)
+    assert not big[n:, :].any() and not big[:, n:].any()
+
+
+def test_slam_with_a_large_map_equals_dense():
+    """Over 128 state entries the structured update works in several strips."""
+    rng = np.random.default_rng(8)
+    L = rng.uniform(-6, 6, (90, 2))
+    fast, dense = EKFSLAM(X0, P0, Q, R, capacity=4), DenseEKFSLAM(X0, P0, Q, R)
+    ids = np.arange(90)
+    z0 = np.array([observe(X0, p) for p in L])
+    for f in (fast, dense):
+        f.update(ids, z0)
+    x = X0.copy()
+    for _ in range(8):
+        u = np.array([0.3, 0.33])
+        x = motion_model(x, u, 0.1)
+        sel = rng.choice(90, 12, replace=False)
+        z = np.array([observe(x, L[j]) for j in sel]) + rng.normal(0, [0.05, 0.03], (12, 2))
+        for f in (fast, dense):
+            f.predict(u, 0.1)
+        a, b = fast.update(sel, z), dense.update(sel, z)
+        assert_same_report(a, b)
+        assert a.n_accepted >= 10
+    assert fast.state_size == 183
+    np.testing.assert_allclose(fast.x, dense.x, atol=1e-9)
+    np.testing.assert_allclose(fast.P, dense.P, atol=1e-9)
+    assert np.array_equal(fast.P, fast.P.T)
