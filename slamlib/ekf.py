@@ -359,8 +359,7 @@ class _EKFBase:
         self.Q = as_covariance("Q", Q, 2)
         self.R = as_covariance("R", R, 2)
         self.wheel_base = as_positive("wheel_base", wheel_base)
-        self.gate = _check_gate(gate)
-        self.threshold = gate_threshold(self.gate)
+        self.gate = gate
         cap = 3 + 2 * max(int(capacity), 0)
         self._x = np.zeros(cap)
         self._P = np.zeros((cap, cap))
@@ -372,6 +371,21 @@ class _EKFBase:
         self._slot: dict[int, int] = {}  # marker id -> index of x_F in the state
 
     # ------------------------------------------------------------------ read-out
+    @property
+    def gate(self) -> float | None:
+        """Probability of the chi-square gate, or None (no gating); may be changed any time."""
+        return self._gate
+
+    @gate.setter
+    def gate(self, value) -> None:
+        self._gate = _check_gate(value)
+        self._threshold = gate_threshold(self._gate)
+
+    @property
+    def threshold(self) -> float:
+        """The gate on d2: ``chi2.ppf(gate, 2)``, ``inf`` without gating."""
+        return self._threshold
+
     @property
     def x(self) -> np.ndarray:
         """The full mean ``[x, y, theta, x_F1, y_F1, ...]`` (a copy), shape (n,)."""

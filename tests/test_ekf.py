@@ -505,3 +505,15 @@ def test_slam_with_a_large_map_equals_dense():
     np.testing.assert_allclose(fast.x, dense.x, atol=1e-9)
     np.testing.assert_allclose(fast.P, dense.P, atol=1e-9)
     assert np.array_equal(fast.P, fast.P.T)
+
+
+def test_the_gate_can_be_changed_between_updates():
+    f = EKFSLAM(X0, P0, Q, R)
+    assert f.threshold == pytest.approx(-2 * math.log(0.05))
+    f.gate = 0.99
+    assert f.threshold == pytest.approx(-2 * math.log(0.01))
+    f.gate = None
+    assert f.threshold == math.inf
+    with pytest.raises(ValueError, match="gate"):
+        f.gate = 1.5
+    assert f.gate is None
