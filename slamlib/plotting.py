@@ -193,7 +193,8 @@ def plot_covariance_blocks(ax, P, n_landmarks: int, *, title: str = "|correlatio
 
 # ------------------------------------------------------------------------- filter runs (Figs. 4-8)
 def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: float = 2.0,
-               show_map: bool = True, title: str | None = None):
+               show_map: bool = True, title: str | None = None, legend_outside: bool = False,
+               estimate_label: str = "estimate"):
     """Top view of a filter run: truth (red), estimate (blue), ``nsigma`` pose ellipses
     every ``ellipse_every`` seconds, the true markers (stars) and, for SLAM, the mapped
     landmarks (plus signs) with their ellipses. The report's Figs. 4, 5 and 7.
@@ -205,13 +206,17 @@ def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: flo
     trace : slamlib.experiments.Trace
     world : World, optional
         The true markers to draw.
+    legend_outside : bool
+        Put the legend to the right of the axes instead of inside.
+    estimate_label : str
+        The estimate's legend entry.
     """
     if not ax.yaxis_inverted():
         world_axes(ax, world)
     if world is not None:
         plot_world(ax, world, facing=False)
     plot_trajectory(ax, trace.truth, style=TRUTH_STYLE)
-    plot_trajectory(ax, trace.x, style=ESTIMATE_STYLE)
+    plot_trajectory(ax, trace.x, style=ESTIMATE_STYLE, label=estimate_label)
     next_t = trace.t[0]
     first = True
     for k in range(trace.t.size):
@@ -229,7 +234,10 @@ def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: flo
             plot_covariance_ellipse(ax, lms[i], trace.filter.landmark_cov(i), nsigma,
                                     color="tab:blue", alpha=0.25)
     ax.plot(*trace.truth[0, :2], "o", color="k", ms=5, label="start")
-    ax.legend(loc="best", fontsize=7)
+    if legend_outside:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
+    else:
+        ax.legend(loc="best", fontsize=7)
     if title:
         ax.set_title(title)
     return ax
