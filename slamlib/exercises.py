@@ -50,6 +50,17 @@ def _call(fn, *args):
     return out, None
 
 
+def _printer(verbose: bool):
+    """``print`` if verbose, else a function that prints nothing."""
+    return print if verbose else (lambda *args, **kwargs: None)
+
+
+def _not_ready(name: str, problem: str, what: str = "it") -> str:
+    """The verdict for a function that is not written yet or raised."""
+    todo = f"Write {what}" if problem.startswith("not written") else "Fix it"
+    return f"{name}: {problem}. {todo}, then run this cell again."
+
+
 def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
                            wheel_base: float = KOBUKI_WHEEL_BASE, verbose: bool = True) -> bool:
     """Check a student's ``fn(x, u, dt, b) -> (A, W)`` against finite differences (chapter 01).
@@ -63,16 +74,13 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
     bool
         True if both Jacobians are right at every point. A verdict is printed.
     """
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     for i, (x, u, dt) in enumerate(_random_motion_points(n_points, seed)):
         out, problem = _call(fn, x.copy(), u.copy(), dt, wheel_base)
         if problem:
-            todo = ("Write A and W" if problem.startswith("not written") else "Fix it")
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "A and W"))
             return False
         try:
             A, W = out
@@ -105,9 +113,7 @@ def check_pose_from_zup(fn, n_points: int = 8, seed: int = 0, verbose: bool = Tr
     Compared with :func:`slamlib.frames.pose_from_zup` at random poses, including
     headings on the +-pi seam; the heading must come back wrapped to [-pi, pi).
     """
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     rng = np.random.default_rng(seed)
@@ -117,8 +123,7 @@ def check_pose_from_zup(fn, n_points: int = 8, seed: int = 0, verbose: bool = Tr
     for p in poses:
         out, problem = _call(fn, p.copy())
         if problem:
-            todo = "Write it" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "it"))
             return False
         got = np.asarray(out, dtype=float)
         want = pose_from_zup(p)
@@ -165,16 +170,13 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
     bool
         True if both Jacobians are right at every point. A verdict is printed.
     """
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     for i, (pose, z) in enumerate(_random_inverse_observation_points(n_points, seed)):
         out, problem = _call(fn, pose.copy(), z.copy())
         if problem:
-            todo = "Write J1 and J2" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "J1 and J2"))
             return False
         try:
             J1, J2 = out
@@ -237,9 +239,7 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
     """
     from .vision import camera_to_range_bearing, default_camera
 
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     T = default_camera().T_base_cam
@@ -249,8 +249,7 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
     for p in pts:
         out, problem = _call(fn, p.copy(), T.copy())
         if problem:
-            todo = "Write it" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "it"))
             return False
         try:
             got = np.asarray(out, dtype=float).reshape(-1)
@@ -297,9 +296,7 @@ def check_numerical_jacobian(fn, verbose: bool = True) -> bool:
     linear map (3 -> 2), a nonlinear one (3 -> 3) and the range-bearing of a
     point; the answer must have shape (outputs, inputs) and be within 1e-5.
     """
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     M = np.array([[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]])
@@ -318,8 +315,7 @@ def check_numerical_jacobian(fn, verbose: bool = True) -> bool:
     for label, f, x, exact in cases:
         out, problem = _call(fn, f, x.copy())
         if problem:
-            todo = "Write it" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "it"))
             return False
         J = np.asarray(out, dtype=float)
         Je = exact(x)
@@ -385,17 +381,14 @@ def check_observation_jacobians(fn, n_points: int = 6, seed: int = 3,
     """
     from .models import observe
 
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     pts = _random_observation_points(max(int(n_points), 2), seed)
     for i, (pose, lm) in enumerate(pts):
         out, problem = _call(fn, pose.copy(), lm.copy())
         if problem:
-            todo = "Write H_pose and H_landmark" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "H_pose and H_landmark"))
             return False
         try:
             Hp, Hl = out
@@ -524,9 +517,7 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
     """
     from scipy.stats import chi2
 
-    def say(msg: str) -> None:
-        if verbose:
-            print(msg)
+    say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
     cases = list(_random_gate_cases(n_points, seed))
@@ -534,8 +525,7 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
     for z, z_pred, S, prob in cases:
         out, problem = _call(fn, z.copy(), z_pred.copy(), S.copy(), prob)
         if problem:
-            todo = "Write it" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+            say(_not_ready(name, problem, "it"))
             return False
         try:
             d2, accept = out

@@ -70,6 +70,7 @@ from .models import (
     wrap_angle,
 )
 from .sensors import AnalyticMarkerSensor, Observations
+from .validate import read_json_file
 from .worlds import DATA_DIR, WORLDS_DIR, World, load_world
 
 __all__ = ["Run", "CameraRows", "PredictEvent", "UpdateEvent", "RunFormatError",
@@ -476,12 +477,7 @@ def _increasing(path: Path, t: np.ndarray, name: str, strict: bool = True) -> No
 
 
 def _read_meta(path: Path) -> dict:
-    if not path.is_file():
-        raise RunFormatError(f"{path}: missing file")
-    try:
-        meta = json.loads(path.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise RunFormatError(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from exc
+    meta, _ = read_json_file(path, RunFormatError)
     if not isinstance(meta, dict):
         raise RunFormatError(f"{path}: line 1: expected a JSON object")
     if meta.get("format") != FORMAT:

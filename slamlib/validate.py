@@ -7,9 +7,12 @@ says what was expected, instead of a NaN three chapters later.
 
 from __future__ import annotations
 
+import json
+
 import numpy as np
 
-__all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar"]
+__all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar",
+           "read_json_file"]
 
 
 def as_vector(name: str, value, size: int | None = None) -> np.ndarray:
@@ -113,3 +116,34 @@ def as_finite_scalar(name: str, value) -> float:
     if not np.isfinite(v):
         raise ValueError(f"{name}: expected a finite number, got {v}")
     return v
+
+
+def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
+    """Read a JSON data file; a malformed one raises ``error`` naming the file and line.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file. A bare name (no folder) that does not exist here is looked up
+        in ``folder``, with ``.json`` added if it has no suffix.
+    error : ValueError subclass
+        What to raise (the caller's format error).
+    folder : Path, optional
+        Where bare names live (``data/worlds``, ``data/calibration``...).
+
+    Returns
+    -------
+    (object, Path)
+        The parsed JSON and the path it was read from.
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    if folder is not None and not p.exists() and not p.is_absolute() and len(p.parts) == 1:
+        p = Path(folder) / (p.name if p.suffix else p.name + ".json")
+    if not p.is_file():
+        raise error(f"{p}: missing file")
+    try:
+        return json.loads(p.read_text(encoding="utf-8")), p
+    except json.JSONDecodeError as exc:
+        raise error(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from exc

@@ -51,7 +51,7 @@ import numpy as np
 
 from .models import inverse_observe, observe, wrap_angle
 from .sensors import Observations
-from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
+from .validate import as_finite_scalar, as_matrix, as_positive, as_vector, read_json_file
 from .worlds import DATA_DIR, Marker, World
 
 __all__ = [
@@ -249,14 +249,7 @@ def load_camera(path="realsense_640x480") -> Camera:
     CalibrationFormatError
         With the file and the offending field in the message.
     """
-    p = Path(path)
-    if not p.exists() and not p.is_absolute() and len(p.parts) == 1:
-        p = CALIBRATION_DIR / (p.name if p.suffix else p.name + ".json")
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise CalibrationFormatError(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})"
-                                     ) from exc
+    d, p = read_json_file(path, CalibrationFormatError, CALIBRATION_DIR)
     return camera_from_dict(d, where=str(p))
 
 
@@ -265,15 +258,9 @@ def save_camera(camera: Camera, path) -> None:
     Path(path).write_text(json.dumps(camera.to_dict(), indent=2) + "\n", encoding="utf-8")
 
 
-@functools.lru_cache(maxsize=1)
-def _default_camera_dict() -> str:
-    return (CALIBRATION_DIR / "realsense_640x480.json").read_text(encoding="utf-8")
-
-
 def default_camera() -> Camera:
     """The report's RealSense colour camera (``data/calibration/realsense_640x480.json``)."""
-    return camera_from_dict(json.loads(_default_camera_dict()),
-                            where=str(CALIBRATION_DIR / "realsense_640x480.json"))
+    return load_camera("realsense_640x480")
 
 
 def camera_to_range_bearing(p_cam, T_base_cam) -> np.ndarray:

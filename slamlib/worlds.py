@@ -34,6 +34,8 @@ from pathlib import Path
 
 import numpy as np
 
+from .validate import read_json_file
+
 __all__ = ["Marker", "World", "WorldFormatError", "load_world", "save_world", "random_world",
            "report_arena", "DATA_DIR", "WORLDS_DIR"]
 
@@ -189,13 +191,7 @@ def load_world(path) -> World:
     WorldFormatError
         With the file and the offending field in the message.
     """
-    p = Path(path)
-    if not p.exists() and not p.is_absolute() and len(p.parts) == 1:
-        p = WORLDS_DIR / (p.name if p.suffix else p.name + ".json")
-    try:
-        d = json.loads(p.read_text(encoding="utf-8"))
-    except json.JSONDecodeError as exc:
-        raise WorldFormatError(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from exc
+    d, p = read_json_file(path, WorldFormatError, WORLDS_DIR)
     return world_from_dict(d, where=str(p))
 
 
