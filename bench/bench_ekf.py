@@ -134,7 +134,7 @@ def main(argv=None) -> None:
                              min_total=0.2)
             row += [fmt(t_uf), fmt(t_ud), f"{t_ud / t_uf:7.0f}x", f"{t_uf / t_floor:7.1f}x"]
         rows.append(row)
-        print("  ".join(row), flush=True)
+        print(f"  measured N = {row[0].strip()}", file=sys.stderr, flush=True)
 
     widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
     print()
