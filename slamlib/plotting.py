@@ -457,3 +457,67 @@ def plot_detection_scene(world, pose, camera, *, rng=None):
                     [cam_xy[1], cam_xy[1] + 4 * np.sin(a)], "g--", lw=0.8)
     ax_top.set_title("top view (y down), field of view")
     return fig, det
+
+
+# ------------------------------------------------------------ Monte-Carlo NEES (chapter 06)
+# Added by the chapter on what the report discussed (consistency over many runs).
+__all__ += ["plot_nees_monte_carlo"]
+
+
+def plot_nees_monte_carlo(studies, *, axes=None, prob: float = 0.95, title: str | None = None,
+                          colors=("tab:blue", "tab:red", "tab:green", "tab:purple")):
+    """The Monte-Carlo average NEES against time with its chi-square band (chapter 06).
+
+    Left: the pose NEES (3 degrees of freedom) averaged over the runs; right: the
+    heading's normalised error ``e_theta^2 / P_theta_theta`` (1 degree of
+    freedom). The gold band is :func:`slamlib.metrics.chi2_band` ``(dof, N,
+    prob)``, where the average of a consistent filter stays ``prob`` of the time.
+
+    Parameters
+    ----------
+    studies : NEESStudy or sequence/dict of them (:mod:`slamlib.studies`)
+        One curve each, labelled with its method; the band uses the first
+        study's number of runs (all should have the same).
+    axes : two Axes, optional
+
+    Returns
+    -------
+    (Figure, axes)
+    """
+    from .metrics import chi2_band
+
+    if hasattr(studies, "values"):
+        studies = list(studies.values())
+    elif hasattr(studies, "average"):
+        studies = [studies]
+    studies = list(studies)
+    if not studies:
+        raise ValueError("studies: expected at least one NEESStudy")
+    if axes is None:
+        fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), dpi=DPI)
+    fig = axes[0].figure
+    n = studies[0].n_runs
+    names = {"localization": "map-based EKF", "slam": "EKF SLAM"}
+    for ax, heading, dof in ((axes[0], False, 3), (axes[1], True, 1)):
+        lo, hi = chi2_band(dof, n, prob)
+        t_all = np.concatenate([s.t for s in studies])
+        ax.fill_between([t_all.min(), t_all.max()], lo, hi, color="gold", alpha=0.45, lw=0,
+                        label=f"{100 * prob:g}% band of the average of {n} runs")
+        ax.axhline(dof, color="k", lw=0.8, ls=":")
+        for s, c in zip(studies, colors):
+            avg = s.average(heading)
+            inside = np.mean((avg > lo) & (avg < hi))
+            ax.plot(s.t, avg, color=c, lw=1.2,
+                    label=f"{names.get(s.method, s.method)}: mean {avg.mean():.2f}, "
+                          f"{inside:.0%} inside")
+        ax.set_xlabel("t (s)")
+        ax.set_ylabel("average NEES" + (" of the heading" if heading else " of the pose"))
+        ax.set_title(f"{'heading' if heading else 'pose'} ({dof} dof), {n} runs")
+        ax.set_ylim(0, max(2.2 * hi, 1.1 * max(float(np.max(s.average(heading)))
+                                               for s in studies)))
+        ax.grid(True, lw=0.4, alpha=0.5)
+        ax.legend(fontsize=7, loc="upper left")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig, axes
