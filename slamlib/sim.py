@@ -41,7 +41,7 @@ from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 from .worlds import World
 
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
-           "encoder_counter", "simulate", "arena_loop_waypoints", "loop_waypoints",
+           "encoder_counter", "KobukiSim", "simulate", "arena_loop_waypoints", "loop_waypoints",
            "SCENARIOS", "scenario", "kobuki_params_dict"]
 
 
@@ -199,6 +199,17 @@ class WaypointController:
         """Back to the first waypoint, at rest."""
         self.index, self._v, self._w = 0, 0.0, 0.0
 
+    def set_waypoints(self, waypoints) -> None:
+        """Follow new waypoints from the current speeds (the robot keeps moving; chapter 07).
+
+        An exploration policy changes its goal while driving: the speeds stay
+        continuous, only the path changes.
+        """
+        wp = as_matrix("waypoints", waypoints, (None, 2)).copy()
+        if wp.shape[0] == 0:
+            raise ValueError("waypoints: expected at least one waypoint")
+        self.waypoints, self.index = wp, 0
+
     @property
     def done(self) -> bool:
         """True once the last waypoint is reached and the robot has stopped."""
@@ -277,10 +288,140 @@ def _sensor_params(sensor) -> dict:
     return {"type": type(sensor).__name__}
 
 
+class KobukiSim:
+    """The simulated Kobuki, one encoder period at a time (the loop inside :func:`simulate`).
+
+    ``sim.step(V_R, V_L)`` holds the wheel commands for one period ``params.dt``:
+    it draws the slip, captures the camera frames that fall in the period,
+    moves the true pose along the exact arc and counts the ticks (steps 2-4 of
+    the module docstring). Who chooses the commands is up to the caller:
+    :func:`simulate` asks a :class:`WaypointController` that looks at the true
+    pose; the exploration of chapter 07 (:mod:`slamlib.explore`) asks a policy
+    that looks at a filter's estimate. Both share this code, so a closed-loop
+    run is recorded exactly like an open-loop one.
+
+    Attributes
+    ----------
+    pose : numpy.ndarray (3,)
+        The true pose now.
+    k : int
+        Periods simulated so far (the time is ``t = k / encoder_rate``).
+    times, poses, ticks_R, ticks_L, frames : list
+        What has been recorded so far (see :meth:`record`).
+    """
+
+    def __init__(self, world: World, *, sensor=None, seed: int = 0,
+                 params: KobukiParams | None = None, start_pose=None):
+        self.world = world
+        self.sensor = sensor
+        self.params = params = params or KobukiParams()
+        if start_pose is None:
+            if world.start_pose is None:
+                raise ValueError("start_pose: the world has none; pass start_pose=[x, y, theta]")
+            start_pose = world.start_pose
+        pose = as_vector("start_pose", start_pose, 3).copy()
+        pose[2] = wrap_angle(pose[2])
+        if not isinstance(seed, (int, np.integer)) or seed < 0:
+            raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+        self.seed = int(seed)
+        self._rng_motion, self._rng_sense = np.random.default_rng(int(seed)).spawn(2)
+        self._rate = float(getattr(sensor, "rate", 10.0)) if sensor is not None else 0.0
+        self._latency = float(getattr(sensor, "latency", 0.0)) if sensor is not None else 0.0
+        self.pose = pose
+        self.k = 0
+        self.times, self.poses = [0.0], [pose.copy()]
+        self._angle_R = self._angle_L = 0.0
+        tpr, bits, off = params.ticks_per_rev, params.bits, params.initial_ticks
+        self.ticks_R = [encoder_counter(0.0, tpr, off[0], bits)]
+        self.ticks_L = [encoder_counter(0.0, tpr, off[1], bits)]
+        self.frames: list[Observations] = []
+        self._next_frame = 0            # index j of the next camera frame, at t = j / rate
+
+    @property
+    def t(self) -> float:
+        """The simulated time now (s)."""
+        return self.times[-1]
+
+    def _capture(self, j: int, p: np.ndarray) -> Observations:
+        obs = self.sensor.read(self.world, p, self._rng_sense)
+        t = j / self._rate
+        obs.t, obs.t_arrival = t, t + self._latency
+        self.frames.append(obs)
+        return obs
+
+    def step(self, VR: float, VL: float) -> list[Observations]:
+        """Drive one encoder period with the rim speeds ``(V_R, V_L)`` (m/s).
+
+        Returns
+        -------
+        list of Observations
+            The camera frames captured during this period ``[k dt, (k+1) dt)``
+            (usually none or one), each with its capture time ``t`` set.
+        """
+        params, k = self.params, self.k
+        b, r, dt = params.wheel_base, params.wheel_radius, params.dt
+        slip = params.sigma_wheel * self._rng_motion.standard_normal(2)
+        gR, gL = VR + slip[0], VL + slip[1]
+        v, w = 0.5 * (gR + gL), (gL - gR) / b
+        pose = self.pose
+        captured = []
+        while self.sensor is not None:
+            x = self._next_frame * params.encoder_rate / self._rate   # capture time in periods
+            kk = math.floor(x + 1e-9)
+            if kk > k:
+                break
+            frac = max(x - k, 0.0) if kk == k else 0.0
+            p = pose if frac < 1e-9 else integrate_arc(pose, v, w, frac * dt)
+            captured.append(self._capture(self._next_frame, p))
+            self._next_frame += 1
+        self.pose = integrate_arc(pose, v, w, dt)
+        self._angle_R += VR * dt / r
+        self._angle_L += VL * dt / r
+        self.k = k = k + 1
+        tpr, bits, off = params.ticks_per_rev, params.bits, params.initial_ticks
+        self.times.append(k / params.encoder_rate)
+        self.poses.append(self.pose)
+        self.ticks_R.append(encoder_counter(self._angle_R, tpr, off[0], bits))
+        self.ticks_L.append(encoder_counter(self._angle_L, tpr, off[1], bits))
+        return captured
+
+    def record(self, *, name: str | None = None, description: str = "",
+               controller: dict | None = None, finished: bool = False) -> Run:
+        """Everything simulated so far as a :class:`~slamlib.runs.Run`.
+
+        ``controller`` (the parameters of whatever chose the commands) and
+        ``finished`` go into the run's meta.
+        """
+        params = self.params
+        t = np.array(self.times)
+        meta = {
+            "world": self.world.name, "seed": self.seed, "duration": float(t[-1]),
+            "description": description,
+            "encoder": {"rate": params.encoder_rate, "ticks_per_rev": params.ticks_per_rev,
+                        "bits": params.bits, "wheel_radius": params.wheel_radius,
+                        "wheel_base": params.wheel_base},
+            "motion": {"sigma_wheel": params.sigma_wheel, "kobuki": kobuki_params_dict(params),
+                       "model": "ground speed = rim speed + N(0, sigma_wheel^2) per wheel, "
+                                "held for each encoder period; exact arcs"},
+            "sensor": _sensor_params(self.sensor),
+            "controller": controller or {},
+            "start_pose": [float(v) for v in self.poses[0]],
+            "finished": bool(finished),
+        }
+        return Run(name=name or f"{self.world.name}_seed{self.seed}", truth_t=t,
+                   truth=np.array(self.poses), enc_t=t, ticks_R=np.array(self.ticks_R),
+                   ticks_L=np.array(self.ticks_L), camera=CameraRows.from_frames(self.frames),
+                   meta=meta)
+
+
 def simulate(world: World, controller: WaypointController, *, sensor=None, seed: int = 0,
              params: KobukiParams | None = None, start_pose=None, max_duration: float = 300.0,
              name: str | None = None, description: str = "") -> Run:
     """Drive the simulated Kobuki through ``world`` and record a :class:`~slamlib.runs.Run`.
+
+    The controller steers by the true pose (open loop as far as any filter is
+    concerned); :mod:`slamlib.explore` closes the loop through a filter with
+    the same :class:`KobukiSim`.
 
     Parameters
     ----------
@@ -306,81 +447,15 @@ def simulate(world: World, controller: WaypointController, *, sensor=None, seed:
     -------
     Run
     """
-    params = params or KobukiParams()
-    if start_pose is None:
-        if world.start_pose is None:
-            raise ValueError("start_pose: the world has none; pass start_pose=[x, y, theta]")
-        start_pose = world.start_pose
-    pose = as_vector("start_pose", start_pose, 3).copy()
-    pose[2] = wrap_angle(pose[2])
     as_positive("max_duration", max_duration)
-    if not isinstance(seed, (int, np.integer)) or seed < 0:
-        raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
+    sim = KobukiSim(world, sensor=sensor, seed=seed, params=params, start_pose=start_pose)
     ctl = replace(controller)
     ctl.reset()
-
-    rng_motion, rng_sense = np.random.default_rng(int(seed)).spawn(2)
-    b, r, dt = params.wheel_base, params.wheel_radius, params.dt
-    tpr, bits, off = params.ticks_per_rev, params.bits, params.initial_ticks
-    rate = float(getattr(sensor, "rate", 10.0)) if sensor is not None else 0.0
-    latency = float(getattr(sensor, "latency", 0.0)) if sensor is not None else 0.0
-    n_max = int(math.ceil(max_duration * params.encoder_rate))
-
-    times, poses = [0.0], [pose.copy()]
-    angle_R = angle_L = 0.0
-    ticks_R = [encoder_counter(0.0, tpr, off[0], bits)]
-    ticks_L = [encoder_counter(0.0, tpr, off[1], bits)]
-    frames: list[Observations] = []
-    next_frame = 0                      # index j of the next camera frame, at t = j / rate
-
-    def capture(j: int, p: np.ndarray) -> None:
-        obs = sensor.read(world, p, rng_sense)
-        t = j / rate
-        obs.t, obs.t_arrival = t, t + latency
-        frames.append(obs)
-
-    k = 0
-    while k < n_max and not ctl.done:
-        VR, VL = ctl.command(pose, dt, b)
-        slip = params.sigma_wheel * rng_motion.standard_normal(2)
-        gR, gL = VR + slip[0], VL + slip[1]
-        v, w = 0.5 * (gR + gL), (gL - gR) / b
-        # camera frames captured during this period [k dt, (k+1) dt)
-        while sensor is not None:
-            x = next_frame * params.encoder_rate / rate     # capture time in periods
-            kk = math.floor(x + 1e-9)
-            if kk > k:
-                break
-            frac = max(x - k, 0.0) if kk == k else 0.0
-            p = pose if frac < 1e-9 else integrate_arc(pose, v, w, frac * dt)
-            capture(next_frame, p)
-            next_frame += 1
-        pose = integrate_arc(pose, v, w, dt)
-        angle_R += VR * dt / r
-        angle_L += VL * dt / r
-        k += 1
-        times.append(k / params.encoder_rate)
-        poses.append(pose)
-        ticks_R.append(encoder_counter(angle_R, tpr, off[0], bits))
-        ticks_L.append(encoder_counter(angle_L, tpr, off[1], bits))
-
-    t = np.array(times)
-    meta = {
-        "world": world.name, "seed": int(seed), "duration": float(t[-1]),
-        "description": description,
-        "encoder": {"rate": params.encoder_rate, "ticks_per_rev": tpr, "bits": bits,
-                    "wheel_radius": r, "wheel_base": b},
-        "motion": {"sigma_wheel": params.sigma_wheel, "kobuki": kobuki_params_dict(params),
-                   "model": "ground speed = rim speed + N(0, sigma_wheel^2) per wheel, "
-                            "held for each encoder period; exact arcs"},
-        "sensor": _sensor_params(sensor),
-        "controller": ctl.params(),
-        "start_pose": [float(v) for v in poses[0]],
-        "finished": bool(ctl.done),
-    }
-    return Run(name=name or f"{world.name}_seed{seed}", truth_t=t, truth=np.array(poses),
-               enc_t=t, ticks_R=np.array(ticks_R), ticks_L=np.array(ticks_L),
-               camera=CameraRows.from_frames(frames), meta=meta)
+    n_max = int(math.ceil(max_duration * sim.params.encoder_rate))
+    while sim.k < n_max and not ctl.done:
+        sim.step(*ctl.command(sim.pose, sim.params.dt, sim.params.wheel_base))
+    return sim.record(name=name, description=description, controller=ctl.params(),
+                      finished=ctl.done)
 
 
 def kobuki_params_dict(params: KobukiParams) -> dict:
