@@ -316,3 +316,83 @@ def test_gate_checker_cases_cross_the_seam_and_straddle_the_gate():
     assert 5 <= sum(inside) <= 15
     assert len({p for *_, p in cases}) >= 4
     assert all(chi2.ppf(p, 2) > 0 for *_, p in cases)
+
+
+# --------------------------------------------------------------------------- chapter 06
+def _band_by_monte_carlo(n, d, p, rng, draws=200_000):
+    # independent of scipy: averages of n chi-square(d) draws, their empirical quantiles
+    avg = rng.chisquare(d, size=(draws, n)).mean(axis=1)
+    return np.quantile(avg, [(1 - p) / 2, (1 + p) / 2])
+
+
+def test_nees_band_checker_accepts_a_right_answer_and_it_matches_a_simulation(capsys):
+    from scipy.stats import chi2
+
+    from slamlib.exercises import check_average_nees_band
+
+    def mine(n, d, p):
+        return chi2.ppf((1 - p) / 2, n * d) / n, chi2.ppf((1 + p) / 2, n * d) / n
+
+    assert check_average_nees_band(mine) is True
+    assert "correct" in capsys.readouterr().out
+    lo, hi = _band_by_monte_carlo(20, 3, 0.95, np.random.default_rng(0))
+    np.testing.assert_allclose(mine(20, 3, 0.95), (lo, hi), rtol=0.01)
+
+
+@pytest.mark.parametrize("stub", [lambda n, d, p: None, "raise"])
+def test_nees_band_checker_says_not_written_yet(capsys, stub):
+    from slamlib.exercises import check_average_nees_band
+
+    def raising(n, d, p):
+        raise NotImplementedError
+
+    assert check_average_nees_band(raising if stub == "raise" else stub) is False
+    assert "not written yet" in capsys.readouterr().out
+
+
+@pytest.mark.parametrize("wrong, words", [
+    ("one", "ONE sample"),
+    ("sum", "SUM"),
+    ("dof", "has N*dof"),
+    ("onesided", "one-sided"),
+    ("normal", "normal approximation"),
+    ("swapped", "swapped"),
+])
+def test_nees_band_checker_names_the_mistake(capsys, wrong, words):
+    from scipy.stats import chi2, norm
+
+    from slamlib.exercises import check_average_nees_band
+
+    def mine(n, d, p):
+        a, b = (1 - p) / 2, (1 + p) / 2
+        if wrong == "one":
+            return chi2.ppf(a, d), chi2.ppf(b, d)
+        if wrong == "sum":
+            return chi2.ppf(a, n * d), chi2.ppf(b, n * d)
+        if wrong == "dof":
+            return chi2.ppf(a, d) / n, chi2.ppf(b, d) / n
+        if wrong == "onesided":
+            return chi2.ppf(1 - p, n * d) / n, chi2.ppf(p, n * d) / n
+        if wrong == "normal":
+            z = norm.ppf(b)
+            return d - z * np.sqrt(2 * d / n), d + z * np.sqrt(2 * d / n)
+        return chi2.ppf(b, n * d) / n, chi2.ppf(a, n * d) / n
+
+    assert check_average_nees_band(mine) is False
+    out = capsys.readouterr().out
+    assert "not right" in out and words in out
+
+
+def test_nees_band_checker_rejects_a_wrong_shape_without_raising(capsys):
+    from slamlib.exercises import check_average_nees_band
+
+    assert check_average_nees_band(lambda n, d, p: 3.0) is False
+    assert check_average_nees_band(lambda n, d, p: (np.ones(2), 1.0)) is False
+    assert "pair (lo, hi)" in capsys.readouterr().out
+
+
+def test_nees_band_checker_agrees_with_the_library_band():
+    from slamlib.exercises import check_average_nees_band
+    from slamlib.metrics import chi2_band
+
+    assert check_average_nees_band(lambda n, d, p: chi2_band(d, n, p), verbose=False) is True
