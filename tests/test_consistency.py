@@ -1,8 +1,9 @@
 """The filters on the simulator: consistent (NEES), protected by the gate, equal to the textbook.
 
 - Monte-Carlo NEES: 20 runs of the standard scenario (``arena_loop``: the
-  report's arena, one loop with loop closure) with independent seeds; the
-  pose NEES averaged over the runs must lie in the 95 % chi-square band.
+  report's arena, one loop with loop closure) with independent seeds
+  (:func:`slamlib.studies.monte_carlo`, shared with chapter 06); the pose NEES
+  averaged over the runs must lie in the 95 % chi-square band.
 - Misread ids (``arena_loop_misreads``): with the gate the trajectory error
   stays small; without it, it grows by an order of magnitude.
 - The recorded runs of ``data/runs``: the structured filters equal the dense
@@ -16,6 +17,7 @@ import numpy as np
 import pytest
 
 from slamlib import experiments as ex
+from slamlib import studies
 from slamlib.ekf import EKFSLAM, EKFLocalization
 from slamlib.ekf_dense import DenseEKFLocalization, DenseEKFSLAM
 from slamlib.metrics import chi2_band
@@ -24,31 +26,21 @@ from slamlib.sim import scenario
 
 N_RUNS = 20
 SEEDS = range(1000, 1000 + N_RUNS)
-STEP = 25            # sample the NEES every 25 encoder periods (0.5 s)
-
-
-def _nees_at_predicts(trace):
-    keep = trace.kind == "predict"
-    return trace.nees[keep]
+STEP = 0.5           # sample the NEES every 0.5 s (25 encoder periods)
 
 
 @pytest.fixture(scope="module")
 def monte_carlo():
-    """Pose NEES after every prediction, for both filters over N_RUNS seeded runs."""
-    out = {"localization": [], "slam": []}
-    for seed in SEEDS:
-        run = scenario("arena_loop", seed=seed)
-        out["localization"].append(_nees_at_predicts(ex.localization(run)))
-        out["slam"].append(_nees_at_predicts(ex.slam(run)))
-    return out
+    """Pose NEES on a 0.5 s grid, for both filters over N_RUNS seeded runs (slamlib.studies)."""
+    return studies.monte_carlo("arena_loop", ("localization", "slam"), SEEDS, step=STEP)
 
 
 @pytest.mark.parametrize("which", ["localization", "slam"])
 def test_average_nees_is_inside_the_95_percent_band(monte_carlo, which):
-    runs = monte_carlo[which]
-    T = min(len(r) for r in runs)        # runs end when the path is done: a few steps differ
-    assert T > 2500
-    avg = np.mean([r[:T] for r in runs], axis=0)[STEP::STEP]
+    study = monte_carlo[which]
+    assert study.n_runs == N_RUNS
+    assert study.t[-1] > 50.0            # the grid runs to the end of the shortest run
+    avg = study.average()
     lo, hi = chi2_band(3, N_RUNS, 0.95)  # about [2.02, 4.16] for 20 runs
     inside = np.mean((avg > lo) & (avg < hi))
     print(f"{which}: mean of the average NEES {avg.mean():.2f} (band [{lo:.2f}, {hi:.2f}]), "

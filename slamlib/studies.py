@@ -1,0 +1,366 @@
+"""Studies over many simulated runs: Monte-Carlo NEES, marker density, loop-closure gate (ch. 06).
+
+One filter run says little about a filter's statistics: its errors at
+neighbouring instants are strongly correlated, so a time average over one run
+is close to one sample. The report's discussion (section VII) makes three
+claims that need many runs to be checked; this module runs them, and
+``tests/test_consistency.py``, ``tests/test_studies.py``, chapter 06 and the
+figure script share it.
+
+- :func:`monte_carlo` / :func:`monte_carlo_nees`: re-simulate a recorded
+  scenario with independent seeds, run the map-based EKF and/or EKF SLAM on
+  each, and sample the pose NEES (and the heading's normalised error alone) on
+  a fixed time grid. :meth:`NEESStudy.average` is the Monte-Carlo average to
+  compare with :func:`slamlib.metrics.chi2_band` ``(3, N)``.
+- :func:`density_sweep`: EKF SLAM in random marker worlds of one extent and
+  increasing marker counts, over several seeds: ATE, final error, map RMSE.
+- :func:`reobservation`: in one SLAM trace, the first reading of the first
+  mapped landmark after its longest absence (the loop closure), its squared
+  Mahalanobis distance against the gate, and when (if ever) a reading of that
+  landmark was accepted again.
+
+Everything is seeded; the same arguments give the same numbers bit for bit.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Iterable, Sequence
+from dataclasses import dataclass
+
+import numpy as np
+
+from . import experiments as ex
+from .metrics import chi2_band, pose_error
+from .metrics import nees as _nees
+from .runs import Run
+
+__all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "DensityRow",
+           "random_loop_run", "density_sweep", "Reobservation", "reobservation",
+           "LandmarkPlacement", "landmark_placement", "DENSITY_EXTENT"]
+
+_METHODS = ("localization", "slam")
+
+
+# --------------------------------------------------------------------------- Monte-Carlo NEES
+@dataclass
+class NEESStudy:
+    """Pose NEES of one filter over N seeded runs, sampled on a common time grid.
+
+    Attributes
+    ----------
+    scenario : str
+        The scenario re-simulated (:data:`slamlib.sim.SCENARIOS`).
+    method : str
+        ``"localization"`` (map-based EKF) or ``"slam"``.
+    seeds : tuple of int
+        One seed per run.
+    t : numpy.ndarray (T,)
+        The time grid (s).
+    nees : numpy.ndarray (N, T)
+        Pose NEES ``e^T P^-1 e`` (3 degrees of freedom) of each run at each time.
+    nees_heading : numpy.ndarray (N, T)
+        The heading's normalised error ``e_theta^2 / P_theta_theta`` (1 degree of freedom).
+    ate : numpy.ndarray (N,)
+        Each run's position ATE (m).
+    reobservations : tuple of Reobservation
+        SLAM only: each run's loop closure on its first landmark (:func:`reobservation`).
+    """
+
+    scenario: str
+    method: str
+    seeds: tuple
+    t: np.ndarray
+    nees: np.ndarray
+    nees_heading: np.ndarray
+    ate: np.ndarray
+    reobservations: tuple = ()
+
+    @property
+    def n_runs(self) -> int:
+        return int(self.nees.shape[0])
+
+    def average(self, heading: bool = False) -> np.ndarray:
+        """The NEES averaged over the runs at each time (shape (T,))."""
+        return np.mean(self.nees_heading if heading else self.nees, axis=0)
+
+    def band(self, prob: float = 0.95, heading: bool = False) -> tuple[float, float]:
+        """The two-sided ``prob`` band of that average for a consistent filter."""
+        return chi2_band(1 if heading else 3, self.n_runs, prob)
+
+    def run_means(self, heading: bool = False) -> np.ndarray:
+        """Each run's NEES averaged over time (shape (N,))."""
+        return np.mean(self.nees_heading if heading else self.nees, axis=1)
+
+
+def sample_trace(trace: ex.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
+    """Pose NEES and heading NEES of ``trace`` at the times ``t_grid``.
+
+    At each grid time the state after the last event at or before it is used
+    (the filter's estimate holds until the next event), so predictions and
+    updates at the same instant are both applied.
+    """
+    t_grid = np.asarray(t_grid, dtype=float)
+    k = np.searchsorted(trace.t, t_grid + 1e-9, side="right") - 1
+    if np.any(k < 0):
+        raise ValueError("t_grid: expected times at or after the trace's start")
+    e = pose_error(trace.x[k], trace.truth[k])
+    P = trace.P[k]
+    return np.asarray(_nees(e, P)), e[:, 2] ** 2 / P[:, 2, 2]
+
+
+def _run_method(run: Run, method: str, gate):
+    if method not in _METHODS:
+        raise ValueError(f"method: expected one of {_METHODS}, got {method!r}")
+    return getattr(ex, method)(run, gate=gate)
+
+
+def monte_carlo(scenario_name: str, methods: Sequence[str] = _METHODS,
+                seeds: Iterable[int] = range(1000, 1020), *, step: float = 0.5,
+                t_end: float | None = None, sigma_wheel: float | None = None,
+                gate: float | None = 0.95, **sensor_overrides) -> dict[str, NEESStudy]:
+    """Re-simulate ``scenario_name`` once per seed and run each filter of ``methods`` on it.
+
+    Parameters
+    ----------
+    scenario_name : str
+        A key of :data:`slamlib.sim.SCENARIOS` (``"arena_loop"``...).
+    methods : sequence of {"localization", "slam"}
+        The filters (both see the same simulated runs).
+    seeds : iterable of int
+        One independent run per seed.
+    step : float
+        Spacing (s) of the time grid on which the NEES is sampled.
+    t_end : float, optional
+        Last grid time; default the end of the shortest run (runs end when the
+        path is done, a few encoder periods apart).
+    sigma_wheel, gate, **sensor_overrides
+        Passed to :func:`slamlib.sim.scenario` (the filter's Q follows the
+        simulated ``sigma_wheel``) and to the filter.
+
+    Returns
+    -------
+    dict method -> NEESStudy
+    """
+    from .sim import scenario
+
+    methods = (methods,) if isinstance(methods, str) else tuple(methods)
+    for m in methods:
+        if m not in _METHODS:
+            raise ValueError(f"methods: expected names from {_METHODS}, got {m!r}")
+    seeds = tuple(int(s) for s in seeds)
+    if not seeds:
+        raise ValueError("seeds: expected at least one seed")
+    if not step > 0:
+        raise ValueError(f"step: expected a positive time step, got {step}")
+    traces: dict[str, list] = {m: [] for m in methods}
+    ends = []
+    for s in seeds:
+        run = scenario(scenario_name, seed=s, sigma_wheel=sigma_wheel, **sensor_overrides)
+        ends.append(float(run.enc_t[-1]))
+        for m in methods:
+            traces[m].append(_run_method(run, m, gate))
+    end = min(ends) if t_end is None else float(t_end)
+    t = np.arange(1, int(np.floor(end / step + 1e-9)) + 1) * step
+    out = {}
+    for m in methods:
+        sampled = [sample_trace(tr, t) for tr in traces[m]]
+        ate = np.array([ex.ate(tr.x, tr.truth).position for tr in traces[m]])
+        reobs = tuple(reobservation(tr) for tr in traces[m]) if m == "slam" else ()
+        out[m] = NEESStudy(scenario_name, m, seeds, t, np.array([a for a, _ in sampled]),
+                           np.array([b for _, b in sampled]), ate, reobs)
+    return out
+
+
+def monte_carlo_nees(scenario_name: str, method: str = "slam",
+                     seeds: Iterable[int] = range(1000, 1020), **kwargs) -> NEESStudy:
+    """:func:`monte_carlo` for one filter: ``study.t`` and ``study.average()`` are the curve."""
+    return monte_carlo(scenario_name, (method,), seeds, **kwargs)[method]
+
+
+# --------------------------------------------------------------------------- marker density
+#: The random worlds of the density sweep: :func:`slamlib.worlds.random_world`'s default extent.
+DENSITY_EXTENT = (0.0, 6.0, -3.0, 3.0)
+
+
+def random_loop_run(count: int, seed: int, *, extent=DENSITY_EXTENT, sigma_wheel: float = 0.02,
+                    margin: float = 1.0) -> tuple:
+    """A loop through a random world of ``count`` markers (world and motion from ``seed``).
+
+    Returns ``(world, run)``: the world is not a file of ``data/worlds``, so
+    ``run.world()`` cannot load it; use the one returned.
+
+    The world is :func:`slamlib.worlds.random_world` ``(extent, count, seed=seed)``;
+    the path is the ellipse of :func:`slamlib.sim.loop_waypoints` (``margin``
+    from the border, a little more than one lap), started on the ellipse
+    heading along it, as in the recorded ``random_loop``; the analytic sensor.
+    """
+    from .sensors import AnalyticMarkerSensor
+    from .sim import KobukiParams, WaypointController, loop_waypoints, simulate
+    from .worlds import random_world
+
+    world = random_world(extent=extent, count=count, seed=seed)
+    wp = loop_waypoints(world.bounds, margin=margin)
+    start = np.array([wp[0, 0], wp[0, 1], -np.pi / 2])     # on the ellipse, heading -y
+    run = simulate(world, WaypointController(wp[1:]), sensor=AnalyticMarkerSensor(),
+                   seed=seed, params=KobukiParams(sigma_wheel=sigma_wheel), start_pose=start,
+                   name=f"random_{count}_seed{seed}")
+    return world, run
+
+
+@dataclass
+class DensityRow:
+    """One EKF SLAM run of the density sweep."""
+
+    count: int
+    seed: int
+    ate: float
+    final_error: float
+    map_rmse: float
+    landmarks: int
+    mean_nees: float
+    placements: tuple = ()
+
+
+def density_sweep(counts: Sequence[int] = (4, 8, 16, 32), seeds: Iterable[int] = range(5), *,
+                  extent=DENSITY_EXTENT, sigma_wheel: float = 0.02,
+                  gate: float | None = 0.95) -> list[DensityRow]:
+    """EKF SLAM on :func:`random_loop_run` for every marker count and seed.
+
+    Returns one :class:`DensityRow` per (count, seed), counts outermost, with
+    the run's :func:`landmark_placement`. ``map_rmse`` is NaN when no landmark
+    was mapped.
+    """
+    seeds = tuple(int(s) for s in seeds)
+    rows = []
+    for n in counts:
+        for s in seeds:
+            world, run = random_loop_run(int(n), s, extent=extent, sigma_wheel=sigma_wheel)
+            tr = ex.slam(run, gate=gate)
+            m = tr.metrics(world)
+            rows.append(DensityRow(int(n), s, m["ate_xy"], m["final_xy_error"],
+                                   m.get("map_rmse", float("nan")), int(m["landmarks"]),
+                                   m["mean_nees"], tuple(landmark_placement(tr, world))))
+    return rows
+
+
+# --------------------------------------------------------------------------- loop closure
+@dataclass
+class Reobservation:
+    """The loop closure of a SLAM trace, seen from its first landmark.
+
+    Attributes
+    ----------
+    marker_id : int
+        The first landmark the filter mapped.
+    t_last, t_again : float
+        When it was read last before its longest absence, and read again (s).
+        NaN if it was never read again.
+    d2 : float
+        ``y^T S^-1 y`` of that first reading again (NaN if it was not gated).
+    threshold : float
+        The gate.
+    status : str
+        What the filter did with that reading (``"accepted"``, ``"rejected"``...).
+    t_accepted : float
+        The first time after ``t_last`` a reading of it was accepted (NaN: never).
+    n_rejected : int
+        How many of its readings after ``t_last`` were rejected before that.
+    nees_before : float
+        The pose NEES just before that reading was processed (is the filter
+        overconfident when the gate decides?).
+    """
+
+    marker_id: int
+    t_last: float
+    t_again: float
+    d2: float
+    threshold: float
+    status: str
+    t_accepted: float
+    n_rejected: int
+    nees_before: float = float("nan")
+
+    @property
+    def rejected(self) -> bool:
+        return self.status == "rejected"
+
+    @property
+    def closed(self) -> bool:
+        """True if a reading of the first landmark was accepted after its absence."""
+        return bool(np.isfinite(self.t_accepted))
+
+
+def reobservation(trace: ex.Trace, marker_id: int | None = None) -> Reobservation:
+    """Find the loop closure of a SLAM ``trace`` on ``marker_id`` (default: the first mapped).
+
+    The absence is measured on the readings the filter received (its update
+    reports), whatever it did with them, so a rejected re-observation is found
+    as well as an accepted one.
+    """
+    if marker_id is None:
+        if not trace.filter.landmark_ids:
+            raise ValueError("trace: the filter mapped no landmark")
+        marker_id = int(trace.filter.landmark_ids[0])
+    seen = [(t, rep, int(np.flatnonzero(rep.ids == marker_id)[0]))
+            for t, rep in trace.reports if np.any(rep.ids == marker_id)]
+    nan = float("nan")
+    if len(seen) < 2:
+        return Reobservation(marker_id, seen[0][0] if seen else nan, nan, nan, nan, "never",
+                             nan, 0)
+    times = np.array([t for t, _, _ in seen])
+    g = int(np.argmax(np.diff(times)))
+    t_last, (t_again, rep, i) = float(times[g]), seen[g + 1]
+    later = seen[g + 1:]
+    t_acc, n_rej = nan, 0
+    for t, r, j in later:
+        if r.status[j] == "accepted":
+            t_acc = float(t)
+            break
+        n_rej += r.status[j] == "rejected"
+    # the trace records the state after every event: the one before this update is the prior
+    k = int(np.flatnonzero((trace.kind == "update") & (trace.t == t_again))[0])
+    nees_before = float(_nees(pose_error(trace.x[k - 1], trace.truth[k]), trace.P[k - 1]))
+    return Reobservation(marker_id, t_last, float(t_again), float(rep.d2[i]),
+                         float(rep.threshold), str(rep.status[i]), t_acc, int(n_rej),
+                         nees_before)
+
+
+# --------------------------------------------------------------------------- landmark placement
+@dataclass
+class LandmarkPlacement:
+    """Where one landmark was put when it was mapped, and where it ended up (m)."""
+
+    marker_id: int
+    t_added: float
+    pose_error: float
+    heading_error: float
+    error_added: float
+    error_final: float
+
+
+def landmark_placement(trace: ex.Trace, world) -> list[LandmarkPlacement]:
+    """For every landmark of a SLAM ``trace``: the robot's position and heading error when
+    the landmark was added, the landmark's error then, and its error at the end.
+
+    The landmark's first estimate is recomputed from the trace: the inverse
+    observation (:func:`slamlib.models.inverse_observe`) of its first reading
+    from the pose after that update, which is what :class:`~slamlib.ekf.EKFSLAM`
+    does. Ids not in ``world`` (misreads) are left out.
+    """
+    from .models import inverse_observe
+
+    true = world.landmarks()
+    final = trace.filter.landmarks
+    out = []
+    upd = np.flatnonzero(trace.kind == "update")
+    for (t, rep), k in zip(trace.reports, upd):
+        for i in np.flatnonzero(rep.new):
+            mid = int(rep.ids[i])
+            if mid not in true:
+                continue
+            p0 = inverse_observe(trace.x[k], rep.z[i])
+            e = trace.error[k]
+            out.append(LandmarkPlacement(mid, float(t), float(np.hypot(e[0], e[1])),
+                                         float(e[2]), float(np.hypot(*(p0 - true[mid]))),
+                                         float(np.hypot(*(final[mid] - true[mid])))))
+    return out
