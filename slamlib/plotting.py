@@ -521,3 +521,63 @@ def plot_nees_monte_carlo(studies, *, axes=None, prob: float = 0.95, title: str 
         fig.suptitle(title)
     fig.tight_layout()
     return fig, axes
+
+
+# --------------------------------------------------------------------------- chapter 08
+__all__ += ["plot_latency_study", "LATENCY_METHOD_STYLES"]
+
+#: Colours and labels of the late-frame methods of :mod:`slamlib.delay`.
+LATENCY_METHOD_STYLES = {
+    "naive": {"color": "tab:red", "marker": "o", "label": "naive: fused on arrival"},
+    "fixed": {"color": "tab:blue", "marker": "s", "label": "fixed: fused at capture time"},
+    "compensated": {"color": "tab:green", "marker": "^",
+                    "label": "readings moved by odometry"},
+}
+
+_LATENCY_METRIC_LABELS = {
+    "ate_xy": "position ATE (m)", "ate_theta": "heading ATE (rad)",
+    "mean_nees": "mean pose NEES", "map_rmse": "map RMS error (m)",
+    "final_xy_error": "final position error (m)", "rejected": "readings rejected by the gate",
+}
+
+
+def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
+                       title: str | None = None):
+    """Errors against camera latency, one line per method (chapter 08).
+
+    Parameters
+    ----------
+    rows : list of dict
+        :func:`slamlib.delay.latency_study` output (keys ``latency``,
+        ``method`` and the metrics).
+    metrics : sequence of str
+        One panel per metric.
+    axes : sequence of Axes, optional
+
+    Returns
+    -------
+    (Figure, axes)
+    """
+    metrics = list(metrics)
+    if axes is None:
+        fig, axes = plt.subplots(1, len(metrics), figsize=(3.6 * len(metrics), 3.2), dpi=DPI,
+                                 squeeze=False)
+        axes = axes[0]
+    fig = axes[0].figure
+    methods = list(dict.fromkeys(r["method"] for r in rows))
+    for ax, key in zip(axes, metrics):
+        for m in methods:
+            pts = sorted((r["latency"], r[key]) for r in rows if r["method"] == m and key in r)
+            if not pts:
+                continue
+            style = dict(LATENCY_METHOD_STYLES.get(m, {"label": m}))
+            ax.plot([p[0] for p in pts], [p[1] for p in pts], lw=1.4, ms=5, **style)
+        ax.set_xlabel("camera latency (s)")
+        ax.set_ylabel(_LATENCY_METRIC_LABELS.get(key, key))
+        ax.set_ylim(bottom=0)
+        ax.grid(True, lw=0.4, alpha=0.5)
+    axes[0].legend(fontsize=7, loc="upper left")
+    if title:
+        fig.suptitle(title)
+    fig.tight_layout()
+    return fig, axes
