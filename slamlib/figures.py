@@ -184,6 +184,15 @@ def course_random_world_slam(ctx: _Context):
     return ax.figure
 
 
+def course_nees_monte_carlo(ctx: _Context):
+    from . import studies
+    mc = ctx.get("mc:arena_loop", lambda: studies.monte_carlo(
+        "arena_loop", ("localization", "slam"), range(1000, 1020), step=0.5))
+    fig, _ = plotting.plot_nees_monte_carlo(
+        mc, title="Monte-Carlo NEES, arena_loop, 20 seeded runs (chapter 06)")
+    return fig
+
+
 #: name -> function(ctx) -> Figure, in the order they are made.
 FIGURES: dict[str, Callable] = {
     "fig2_camera_to_robot": fig2_camera_to_robot,
@@ -197,6 +206,7 @@ FIGURES: dict[str, Callable] = {
     "course_gating_errors": course_gating_errors,
     "course_random_world_slam": course_random_world_slam,
     "course_vision_error_study": course_vision_error_study,
+    "course_nees_monte_carlo": course_nees_monte_carlo,
 }
 
 
