@@ -32,6 +32,20 @@ def test_every_chapter_has_a_hidden_solution():
             assert c.metadata.get("jupyter", {}).get("source_hidden"), f"{p.name}: not collapsed"
 
 
+def test_the_students_own_cell_is_checked_before_any_solution():
+    # The checker must run in the student's cell: a solution cell placed between the
+    # student's answer and the checker would overwrite the answer on "Run All".
+    for p in NOTEBOOKS:
+        cells = nbformat.read(p, as_version=4).cells
+        for i, c in enumerate(cells):
+            if "solution" in c.metadata.get("tags", []):
+                student = cells[i - 1]
+                assert "check_" in student.source and "solution" not in student.metadata.get(
+                    "tags", []), f"{p.name}: cell {i - 1} (the student's) does not call a checker"
+                out = "".join(o.get("text", "") for o in student.get("outputs", []))
+                assert "not written yet" in out, f"{p.name}: the stub's checker output is {out!r}"
+
+
 @pytest.mark.parametrize("path", NOTEBOOKS, ids=lambda p: p.stem)
 def test_student_notebook_runs_and_checkers_say_not_written(student_dir, path):
     nb = nbformat.read(student_dir / path.name, as_version=4)
