@@ -396,3 +396,53 @@ def test_nees_band_checker_agrees_with_the_library_band():
     from slamlib.metrics import chi2_band
 
     assert check_average_nees_band(lambda n, d, p: chi2_band(d, n, p), verbose=False) is True
+
+
+# --------------------------------------------------------------------------- chapter 08
+def test_history_index_checker_accepts_the_library_and_a_loop(capsys):
+    from slamlib.delay import history_index
+    from slamlib.exercises import check_history_index
+
+    assert check_history_index(history_index) is True
+    assert "correct" in capsys.readouterr().out
+
+    def loop(times, t_capture):
+        i = 0
+        while i < len(times) and times[i] <= t_capture:
+            i += 1
+        return i
+
+    assert check_history_index(loop, verbose=False) is True
+    assert check_history_index(lambda t, tc: np.int64(np.searchsorted(t, tc, side="right")),
+                               verbose=False) is True
+
+
+@pytest.mark.parametrize("wrong, words", [
+    (lambda t, tc: int(np.searchsorted(t, tc, side="left")), "bisect_right, not bisect_left"),
+    (lambda t, tc: sum(1 for x in t if x <= tc) - 1, "one more"),
+    (lambda t, tc: sum(1 for x in t if x > tc), "AFTER the capture time"),
+    (lambda t, tc: 0, "number of events with a time <= t_capture"),
+])
+def test_history_index_checker_names_the_mistake(wrong, words, capsys):
+    from slamlib.exercises import check_history_index
+
+    assert check_history_index(wrong) is False
+    out = capsys.readouterr().out
+    assert "wrong place" in out and words in out
+
+
+def test_history_index_checker_stub_and_bad_output_without_raising(capsys):
+    from slamlib.exercises import check_history_index
+
+    assert check_history_index(lambda t, tc: None) is False
+    assert "not written yet" in capsys.readouterr().out
+    assert check_history_index(lambda t, tc: 1.5) is False
+    assert check_history_index(lambda t, tc: [1, 2]) is False
+    assert check_history_index(lambda t, tc: "3") is False
+    assert capsys.readouterr().out.count("expected one integer") == 3
+
+    def boom(t, tc):
+        raise KeyError("x")
+
+    assert check_history_index(boom) is False
+    assert "KeyError" in capsys.readouterr().out
