@@ -193,6 +193,31 @@ def course_nees_monte_carlo(ctx: _Context):
     return fig
 
 
+def course_camera_delay(ctx: _Context):
+    """Chapter 08: 0.3 s late frames fused on arrival (left) and at their capture time
+    (right), and the errors of both against the latency (bottom)."""
+    from . import delay
+
+    latency = 0.3
+    run = delay.delayed_run(latency)
+    world = run.world()
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8.4), dpi=plotting.DPI,
+                             gridspec_kw={"height_ratios": [1.25, 1]})
+    for ax, method in zip(axes[0], ("naive", "fixed")):
+        tr = delay.run_method(run, method, "slam")
+        m = tr.metrics(world)
+        ctx.metrics.append((f"arena_loop, camera {latency:g} s late: SLAM, {method}", m))
+        plotting.world_axes(ax, world)
+        plotting.plot_trace(ax, tr, world, ellipse_every=1e9,
+                            title=f"{latency:g} s late frames, {method}: ATE {m['ate_xy']:.2f} m, "
+                                  f"map {m['map_rmse']:.2f} m")
+    rows = delay.latency_study((0.0, 0.1, 0.2, 0.3, 0.5), kind="slam")
+    plotting.plot_latency_study(rows, ("ate_xy", "map_rmse"), axes=axes[1])
+    fig.suptitle("EKF SLAM with a late camera (arena loop)")
+    fig.tight_layout()
+    return fig
+
+
 #: name -> function(ctx) -> Figure, in the order they are made.
 FIGURES: dict[str, Callable] = {
     "fig2_camera_to_robot": fig2_camera_to_robot,
@@ -207,6 +232,7 @@ FIGURES: dict[str, Callable] = {
     "course_random_world_slam": course_random_world_slam,
     "course_vision_error_study": course_vision_error_study,
     "course_nees_monte_carlo": course_nees_monte_carlo,
+    "course_camera_delay": course_camera_delay,
 }
 
 
