@@ -23,12 +23,12 @@ from __future__ import annotations
 
 import numpy as np
 
-from .validate import as_finite_scalar, as_positive, as_vector
+from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 
 __all__ = [
     "KOBUKI_WHEEL_BASE", "KOBUKI_WHEEL_RADIUS", "KOBUKI_TICKS_PER_REV",
     "wrap_angle", "tick_difference", "wheel_speeds", "wheel_speeds_from_ticks",
-    "body_velocity", "motion_model", "motion_jacobians",
+    "body_velocity", "motion_model", "motion_jacobians", "motion_model_batch",
     "observe", "observation_jacobians",
     "polar_to_cartesian", "polar_to_cartesian_jacobian",
     "compose_point", "compose_point_jacobians",
@@ -218,6 +218,41 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
                   [-dt / b, dt / b]])
     return A, W
 
+
+
+def motion_model_batch(X, U, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.ndarray:
+    """:func:`motion_model` for many poses at once (chapter 01's Monte-Carlo check).
+
+    The same equation, applied row by row: row ``i`` of the result is
+    ``motion_model(X[i], U[i], dt, wheel_base)``, heading wrapped to [-pi, pi).
+
+    Parameters
+    ----------
+    X : array_like, shape (n, 3)
+        Poses ``[x, y, theta]`` at k-1, one per row.
+    U : array_like, shape (n, 2) or (2,)
+        Wheel speeds ``[V_R, V_L]`` per row (noise already added), or one pair for all.
+    dt : float
+        Time step (s), >= 0.
+    wheel_base : float
+        b (m).
+
+    Returns
+    -------
+    numpy.ndarray, shape (n, 3)
+    """
+    X = as_matrix("X", X, (None, 3))
+    U = np.asarray(U, dtype=float)
+    U = as_matrix("U", np.broadcast_to(U, (X.shape[0], 2)) if U.shape == (2,) else U,
+                  (X.shape[0], 2))
+    dt = as_finite_scalar("dt", dt)
+    if dt < 0.0:
+        raise ValueError(f"dt: expected a non-negative time step, got {dt}")
+    b = as_positive("wheel_base", wheel_base)
+    v, w = 0.5 * (U[:, 0] + U[:, 1]), (U[:, 1] - U[:, 0]) / b
+    return np.column_stack([X[:, 0] + v * np.cos(X[:, 2]) * dt,
+                            X[:, 1] + v * np.sin(X[:, 2]) * dt,
+                            wrap_angle(X[:, 2] + w * dt)])
 
 # --------------------------------------------------------------------------- direct observation
 def _delta(pose, landmark):

@@ -20,6 +20,7 @@ from slamlib.models import (
     invert_pose,
     motion_jacobians,
     motion_model,
+    motion_model_batch,
     observation_jacobians,
     observe,
     polar_to_cartesian,
@@ -123,6 +124,35 @@ def test_motion_jacobians_zero_speed():
 
 
 # ----------------------------------------------------------------- observation
+def test_motion_model_batch_equals_motion_model_row_by_row():
+    rng = np.random.default_rng(11)
+    n = 500
+    X = np.column_stack([rng.uniform(-5, 5, n), rng.uniform(-5, 5, n),
+                         rng.uniform(-math.pi, math.pi, n)])
+    X[:50, 2] = rng.choice([math.pi - 1e-4, -math.pi + 1e-4], 50)    # on the seam
+    U = rng.uniform(-1.0, 1.0, (n, 2))
+    for dt, b in ((0.02, 0.23), (0.7, 0.4)):                  # 0.7 s: turns cross the seam
+        got = motion_model_batch(X, U, dt, b)
+        want = np.array([motion_model(x, u, dt, b) for x, u in zip(X, U)])
+        np.testing.assert_allclose(got, want, rtol=0, atol=1e-12)
+        assert np.all((got[:, 2] >= -math.pi) & (got[:, 2] < math.pi))
+        crossed = np.abs(X[:, 2] + (U[:, 1] - U[:, 0]) / b * dt) > math.pi
+        assert np.count_nonzero(crossed) > 10                  # the wrap was exercised
+    # one control for all rows
+    np.testing.assert_allclose(motion_model_batch(X[:3], [0.2, 0.1], 0.1),
+                               [motion_model(x, [0.2, 0.1], 0.1) for x in X[:3]])
+
+
+@pytest.mark.parametrize("call, name", [
+    (lambda: motion_model_batch(np.zeros((4, 2)), np.zeros((4, 2)), 0.1), "X"),
+    (lambda: motion_model_batch(np.zeros((4, 3)), np.zeros((3, 2)), 0.1), "U"),
+    (lambda: motion_model_batch(np.zeros((4, 3)), np.zeros((4, 2)), -0.1), "dt"),
+])
+def test_motion_model_batch_bad_input_names_the_argument(call, name):
+    with pytest.raises(ValueError, match=rf"^{name}:"):
+        call()
+
+
 def test_observe_closed_form():
     # robot at origin facing +x (north); landmark 1 m to the right (+y): bearing +pi/2
     assert close(observe([0, 0, 0], [0, 1]), [1, math.pi / 2])
