@@ -14,7 +14,11 @@ Both run the same cycle::
     report = f.update(ids, z)  # ids (k,), z (k, 2) = [range, bearing] rows
 
 and both share one :meth:`update` (the *semantics*: association by marker id,
-the chi-square gate, the order of fusion and augmentation). Only the linear
+the chi-square gate, the order of fusion and augmentation). The observation
+model it linearises is one public method, :meth:`reading_model` (default:
+:func:`predict_readings`, the direct observation ``h`` and its Jacobians), so
+that a teaching variant (chapter 03's filter with the report's sign error)
+overrides one documented method and nothing else. Only the linear
 algebra lives in four small methods (``_predict_cov``, ``_innovation_covs``,
 ``_fuse`` and ``_augment_cov``). This module implements them using the
 structure of the problem; :mod:`slamlib.ekf_dense` overrides them with the
@@ -435,6 +439,41 @@ class _EKFBase:
         """``(position, slot)`` of a landmark (slot -1: not in the state), or None."""
         raise NotImplementedError
 
+    def reading_model(self, pose: np.ndarray, positions: np.ndarray
+                      ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The observation model that :meth:`update` linearises (chapter 03): a public hook.
+
+        :meth:`update` calls it once per call, at the prior (predicted) pose, with
+        the positions of the landmarks read, and uses what it returns everywhere:
+        the innovations, the gate's ``S_i`` and the joint update (also in the dense
+        reference :mod:`slamlib.ekf_dense`, which inherits :meth:`update`).
+
+        Parameters
+        ----------
+        pose : numpy.ndarray, shape (3,)
+            The prior pose ``[x, y, theta]`` (a copy: changing it changes nothing).
+        positions : numpy.ndarray, shape (k, 2)
+            The landmarks' positions ``[x_F, y_F]`` (the known map or the state).
+
+        Returns
+        -------
+        (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
+            Predicted readings ``[range, bearing]`` and the Jacobians of each with
+            respect to the pose and to its landmark. A row of ``h`` with a NaN
+            bearing marks a degenerate reading (landmark on the robot): not used.
+
+        The default is :func:`predict_readings`, the direct observation and its
+        (correct) Jacobians. Override it to study a different model, e.g. a
+        Jacobian with a sign error, without touching the filter's algebra::
+
+            class Broken(EKFLocalization):
+                def reading_model(self, pose, positions):
+                    h, Hp, Hl = super().reading_model(pose, positions)
+                    Hp[:, 1, 1] *= -1
+                    return h, Hp, Hl
+        """
+        return predict_readings(pose, positions)
+
     def update(self, ids, z, R=None) -> UpdateReport:
         """Correct the state with the readings ``z`` of the markers ``ids`` (chapters 03-05).
 
@@ -492,7 +531,7 @@ class _EKFBase:
         if gated:
             g = np.array(gated)
             slots_a = np.array(slots, dtype=np.int64)
-            h, Hp, Hl = predict_readings(self._x[:3], np.array(positions))
+            h, Hp, Hl = self.reading_model(self._x[:3].copy(), np.array(positions))
             ok = np.isfinite(h[:, 1])
             for i in g[~ok]:
                 status[i] = "degenerate"

@@ -3,7 +3,9 @@
 :class:`DenseEKFLocalization` and :class:`DenseEKFSLAM` have exactly the
 semantics of :class:`slamlib.ekf.EKFLocalization` and
 :class:`slamlib.ekf.EKFSLAM`: they *inherit* association, gating, the order of
-fusion and augmentation, input checks and the report. Only the four
+fusion and augmentation, input checks, the report and the observation model
+(the public hook ``reading_model``, so a variant that overrides it behaves the
+same in both). Only the four
 linear-algebra steps are replaced by the formulas as printed in the
 textbooks (and in the report, section V.C), with matrices as large as the
 state:

@@ -517,3 +517,72 @@ def test_the_gate_can_be_changed_between_updates():
     with pytest.raises(ValueError, match="gate"):
         f.gate = 1.5
     assert f.gate is None
+
+
+# --------------------------------------------------------------------------- the public hook
+class _FlippedMixin:
+    """A teaching variant: H_pose[1,1] with the report's sign, through the public hook only."""
+
+    def reading_model(self, pose, positions):
+        h, Hp, Hl = super().reading_model(pose, positions)
+        Hp[:, 1, 1] = -Hp[:, 1, 1]
+        return h, Hp, Hl
+
+
+class _FlippedLocalization(_FlippedMixin, EKFLocalization):
+    pass
+
+
+class _FlippedDenseLocalization(_FlippedMixin, DenseEKFLocalization):
+    pass
+
+
+class _FlippedSLAM(_FlippedMixin, EKFSLAM):
+    pass
+
+
+class _FlippedDenseSLAM(_FlippedMixin, DenseEKFSLAM):
+    pass
+
+
+def test_reading_model_default_is_predict_readings():
+    f = EKFLocalization(X0, P0, Q, R, {1: [1.0, 2.0]})
+    L = np.array([[1.0, 2.0], [-3.0, 0.5]])
+    for a, b in zip(f.reading_model(X0, L), predict_readings(X0, L)):
+        assert np.array_equal(a, b)
+
+
+def test_reading_model_override_is_used_by_gate_and_update():
+    # one reading, computed by hand with the flipped H: d2, posterior mean and covariance
+    lm = np.array([2.6, 0.9])
+    x0 = np.array([0.4, -0.2, 0.3])
+    z = observe(x0, lm) + np.array([0.03, -0.02])
+    Hp, _ = observation_jacobians(x0, lm)
+    Hp[1, 1] = -Hp[1, 1]
+    y = z - observe(x0, lm)
+    y[1] = wrap_angle(y[1])
+    S = Hp @ P0 @ Hp.T + R
+    K = P0 @ Hp.T @ np.linalg.inv(S)
+    x_want = x0 + K @ y
+    I_KH = np.eye(3) - K @ Hp
+    P_want = I_KH @ P0 @ I_KH.T + K @ R @ K.T
+    for cls in (_FlippedLocalization, _FlippedDenseLocalization):
+        f = cls(x0, P0, Q, R, {5: lm}, gate=None)
+        rep = f.update([5], z[None, :])
+        assert rep.d2[0] == pytest.approx(float(y @ np.linalg.solve(S, y)), rel=1e-10)
+        np.testing.assert_allclose(f.x, x_want, atol=1e-12)
+        np.testing.assert_allclose(f.P, P_want, atol=1e-12)
+    # and it differs from the right filter
+    g = EKFLocalization(x0, P0, Q, R, {5: lm}, gate=None)
+    g.update([5], z[None, :])
+    assert np.abs(g.x - x_want).max() > 1e-6
+
+
+def test_reading_model_override_is_the_same_in_the_dense_reference():
+    fast, dense = _FlippedSLAM(X0, P0, Q, R, capacity=1), _FlippedDenseSLAM(X0, P0, Q, R)
+    for u, dt, ids, z, Rk in scripted_sequence(seed=4, steps=120):
+        fast.predict(u, dt)
+        dense.predict(u, dt)
+        assert_same_report(fast.update(ids, z, Rk), dense.update(ids, z, Rk))
+        np.testing.assert_allclose(fast.x, dense.x, rtol=0, atol=1e-9)
+        np.testing.assert_allclose(fast.P, dense.P, rtol=0, atol=1e-9)
