@@ -156,6 +156,15 @@ def _random_inverse_observation_points(n: int, seed: int):
         yield pose, z
 
 
+def _looks_like_report_J1_typo(c1, pose, z) -> bool:
+    """J1 wrong in [1,2] only, with the report's ``^N x cos(theta) - ^B y sin(theta)``."""
+    if [(r, c) for r, c, *_ in c1.wrong] != [(1, 2)]:
+        return False
+    got = c1.wrong[0][2]
+    typo = pose[0] * np.cos(pose[2]) - z[0] * np.sin(z[1]) * np.sin(pose[2])
+    return bool(np.isclose(got, typo, rtol=1e-5, atol=1e-7))
+
+
 def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
                                         verbose: bool = True) -> bool:
     """Check a student's ``fn(pose, z) -> (J1, J2)`` against finite differences (chapter 04).
@@ -200,10 +209,14 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
             if np.shape(J1) == (3, 2):
                 hints.append("J1 has 2 rows (x_F, y_F) and 3 columns (x, y, theta): "
                              "it looks transposed.")
-            elif any((r, c) == (1, 2) for r, c, *_ in c1.wrong):
+            elif _looks_like_report_J1_typo(c1, pose, z):
                 hints.append("J1[1,2] = d y_F / d theta = ^B x cos(theta) - ^B y sin(theta), "
                              "where (^B x, ^B y) is the landmark in the robot frame, not the "
-                             "robot's position in N.")
+                             "robot's position in N (the report prints ^N x here).")
+            elif any(c == 2 for _, c, *_ in c1.wrong):
+                hints.append("the theta column of J1 is d(x_F, y_F)/d theta = "
+                             "[-rho sin(theta + beta), rho cos(theta + beta)]: turning the robot "
+                             "swings the landmark on a circle of radius rho around it.")
             else:
                 hints.append("J1 is the derivative of x_B (+) p with respect to the pose "
                              "[x, y, theta], with p = [rho cos(beta), rho sin(beta)] fixed.")
@@ -430,6 +443,17 @@ def check_observation_jacobians(fn, n_points: int = 6, seed: int = 3,
             if len(wrong) > 1 and all(flipped(wrong, key) for key in wrong):
                 hints.append(f"several entries of {c.name} have the wrong sign: the difference "
                              "is landmark minus robot, dx = x_F - x, dy = y_F - y.")
+        Hl_t = np.asarray(Hl, dtype=float) if np.shape(Hl) == (2, 2) else None
+        l_transposed = (not cl.ok and Hl_t is not None and np.all(np.isfinite(Hl_t))
+                        and compare_jacobians("H_landmark^T", Hl_t.T, Hl_ref).ok)
+        if l_transposed:
+            hints.append("your H_landmark is transposed: its ROWS are range and bearing, its "
+                         "columns d/d x_F and d/d y_F (H_landmark[1,0] = d bearing / d x_F).")
+            wrong_l = {}
+        if (1, 2) in wrong_p:
+            hints.append("H_pose[1,2] = d bearing / d theta = -1: the bearing is "
+                         "atan2(dy, dx) - theta, so turning the robot by +d theta moves the "
+                         "marker's bearing by -d theta.")
         if flipped(wrong_p, (1, 1)) and len(wrong_p) <= 2:
             hints.append("H_pose[1,1] = d bearing / d y = -dx/q with dx = x_F - x, q = dx^2 + dy^2 "
                          "(the report prints +dx/q).")

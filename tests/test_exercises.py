@@ -196,6 +196,61 @@ def test_observation_checker_never_raises(capsys):
     assert "transposed" in capsys.readouterr().out
 
 
+def test_observation_checker_names_a_transposed_H_landmark(capsys):
+    from slamlib.exercises import check_observation_jacobians
+    from slamlib.models import observation_jacobians
+
+    def transposed_landmark(pose, landmark):
+        Hp, Hl = observation_jacobians(pose, landmark)
+        return Hp, Hl.T
+
+    assert check_observation_jacobians(transposed_landmark) is False
+    out = capsys.readouterr().out
+    assert "H_landmark is transposed" in out
+    assert "sqrt(q)" not in out
+
+
+def test_observation_checker_hints_dbearing_dtheta(capsys):
+    from slamlib.exercises import check_observation_jacobians
+    from slamlib.models import observation_jacobians
+
+    def plus_one(pose, landmark):
+        Hp, Hl = observation_jacobians(pose, landmark)
+        Hp[1, 2] = 1.0
+        return Hp, Hl
+
+    assert check_observation_jacobians(plus_one) is False
+    out = capsys.readouterr().out
+    assert "H_pose[1,2]" in out and "d bearing / d theta = -1" in out
+    assert "sqrt(q)" not in out
+
+
+def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys):
+    # a wrong J1[1,2] that is not the report's ^N x typo gets the theta-column hint,
+    # not the report's
+    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.models import inverse_observation_jacobians
+
+    def wrong_theta(pose, z):
+        J1, J2 = inverse_observation_jacobians(pose, z)
+        J1[1, 2] = -J1[1, 2]
+        return J1, J2
+
+    assert check_inverse_observation_jacobians(wrong_theta) is False
+    out = capsys.readouterr().out
+    assert "J1[1,2]" in out and "theta column" in out
+    assert "^N x" not in out and "robot's position in N" not in out
+
+    from slamlib.report import printed_J1
+
+    def report_J1(pose, z):
+        return printed_J1(pose, z), inverse_observation_jacobians(pose, z)[1]
+
+    assert check_inverse_observation_jacobians(report_J1) is False
+    out = capsys.readouterr().out
+    assert "robot's position in N" in out and "theta column" not in out
+
+
 # --------------------------------------------------------------------------- chapter 05
 def _gate_answer(z, z_pred, S, prob, *, wrap=True, inverse=True, dof=2):
     """An answer written out independently of the checker, with switchable mistakes."""
