@@ -8,7 +8,10 @@ every event next to the truth. This module does exactly that, once.
 - :func:`dead_reckoning` predicts only (the report's Fig. 4);
 - :func:`localization` runs the map-based EKF on the world's true map (Figs. 5, 6);
 - :func:`slam` runs EKF SLAM (Figs. 7, 8);
-- :func:`run_filter` is the loop they share, for any filter built by hand.
+- :func:`run_filter` is the loop they share, for any filter built by hand; with
+  ``until=t`` it stops just before the first camera frame at or after ``t`` and
+  hands that frame back (:class:`PendingFrame`), so that a chapter can look at
+  one update in detail (chapter 05).
 
 Each returns a :class:`Trace`, whose :meth:`Trace.metrics` gives the numbers
 the figure script prints (ATE, mean NEES, landmarks mapped, map error).
@@ -24,13 +27,33 @@ from .ekf import EKFSLAM, EKFLocalization, UpdateReport
 from .metrics import ate, nees, pose_error
 from .runs import Run
 
-__all__ = ["Trace", "run_filter", "dead_reckoning", "localization", "slam", "map_error",
-           "DEFAULT_P0", "DEFAULT_R"]
+__all__ = ["Trace", "PendingFrame", "run_filter", "dead_reckoning", "localization", "slam",
+           "map_error", "DEFAULT_P0", "DEFAULT_R"]
 
 #: Initial pose covariance: the robot starts where the map's frame is defined.
 DEFAULT_P0 = np.diag([1e-6, 1e-6, 1e-6])
 #: Reading covariance used when the run's sensor does not give one (5 cm, 2 deg).
 DEFAULT_R = np.diag([0.05**2, np.radians(2.0) ** 2])
+
+
+@dataclass(frozen=True)
+class PendingFrame:
+    """The camera frame at which :func:`run_filter` stopped (``until``), not yet fused.
+
+    Attributes
+    ----------
+    t : float
+        Its time (capture or arrival, as the run was driven).
+    obs : slamlib.sensors.Observations
+        Its readings (``obs.ids``, ``obs.z``...).
+    R : numpy.ndarray (k, 2, 2) or None
+        Each reading's covariance as :func:`run_filter` would have passed it to
+        ``update`` (None when the filter's own R is used).
+    """
+
+    t: float
+    obs: object
+    R: np.ndarray | None
 
 
 @dataclass
@@ -53,6 +76,9 @@ class Trace:
         Every update's report with its time.
     filter : EKFLocalization or EKFSLAM
         The filter in its final state.
+    pending : PendingFrame or None
+        With ``run_filter(..., until=t)``: the frame it stopped before (None
+        when the run ended first, or without ``until``).
     """
 
     t: np.ndarray
@@ -62,6 +88,7 @@ class Trace:
     truth: np.ndarray
     reports: list = field(default_factory=list)
     filter: object = None
+    pending: PendingFrame | None = None
 
     @property
     def error(self) -> np.ndarray:
@@ -109,7 +136,7 @@ class Trace:
 
 
 def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,
-               max_time: float | None = None) -> Trace:
+               max_time: float | None = None, until: float | None = None) -> Trace:
     """Drive ``filt`` through ``run``'s events and record a :class:`Trace`.
 
     Parameters
@@ -125,8 +152,14 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
         sensor (it grows with range); otherwise the filter's own R.
     max_time : float, optional
         Stop after this time (s).
+    until : float, optional
+        Stop just BEFORE the first camera frame with readings at or after this
+        time (s): the filter holds the prior of that frame, which is returned
+        unfused in ``trace.pending`` (with the R it would have been given), so
+        that ``trace.filter.update(p.obs.ids, p.obs.z, R=p.R)`` is the next step.
     """
     sensor = run.sensor() if use_sensor_R else None
+    pending = None
     t, kinds, xs, Ps = [float(run.enc_t[0])], ["start"], [filt.pose.copy()], [filt.pose_cov.copy()]
     reports: list[tuple[float, UpdateReport]] = []
     for ev in run.events(by=by):
@@ -139,6 +172,9 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
             if len(obs) == 0:
                 continue
             R = None if sensor is None else np.stack([sensor.R(r) for r in obs.z[:, 0]])
+            if until is not None and ev.t >= until - 1e-9:
+                pending = PendingFrame(float(ev.t), obs, R)
+                break
             reports.append((ev.t, filt.update(obs.ids, obs.z, R=R)))
         t.append(ev.t)
         kinds.append(ev.kind)
@@ -146,7 +182,7 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
         Ps.append(filt.pose_cov.copy())
     t_arr = np.array(t)
     return Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
-                 truth=run.truth_at(t_arr), reports=reports, filter=filt)
+                 truth=run.truth_at(t_arr), reports=reports, filter=filt, pending=pending)
 
 
 def _R(run: Run) -> np.ndarray:
@@ -186,14 +222,17 @@ def localization(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, 
 
 
 def slam(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
-         by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None
-         ) -> Trace:
-    """EKF SLAM from the run's first true pose (chapter 05, the report's Figs. 7 and 8)."""
+         by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None,
+         until: float | None = None) -> Trace:
+    """EKF SLAM from the run's first true pose (chapter 05, the report's Figs. 7 and 8).
+
+    ``max_time`` and ``until`` are passed to :func:`run_filter`.
+    """
     Q = run.Q() if Q is None else Q
     filt = EKFSLAM(run.start_pose, P0, Q, _R(run) if R is None else R,
                    wheel_base=run.wheel_base, gate=gate)
     return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
-                      max_time=max_time)
+                      max_time=max_time, until=until)
 
 
 def map_error(filt: EKFSLAM, world) -> tuple[float, dict[int, float]]:
