@@ -15,6 +15,8 @@
 
   (Bar-Shalom, Li and Kirubarajan, *Estimation with Applications to Tracking
   and Navigation*, section 5.4).
+- :func:`kl_gaussian`: the Kullback-Leibler divergence between two Gaussians
+  (chapter 04 compares a Monte-Carlo cloud's Gaussian with the linearised one).
 - :func:`ate`: absolute trajectory error, the RMSE of the positions and of the
   (wrapped) heading. The estimate and the truth are compared in the same
   frame N, with no alignment: the filter starts from the true (known) pose, so
@@ -31,7 +33,7 @@ from .models import wrap_angle
 from .validate import as_finite_scalar
 
 __all__ = ["pose_error", "mahalanobis2", "nees", "nis", "chi2_quantile", "chi2_band",
-           "average_nees", "ate", "ATE"]
+           "average_nees", "ate", "ATE", "kl_gaussian"]
 
 
 def _as_array(name: str, value, min_ndim: int) -> np.ndarray:
@@ -203,3 +205,46 @@ def ate(estimate, truth) -> ATE:
         raise ValueError(f"estimate: expected a trajectory of shape (T, 3), T >= 1, got {d.shape}")
     return ATE(float(np.sqrt(np.mean(d[:, 0] ** 2 + d[:, 1] ** 2))),
                float(np.sqrt(np.mean(d[:, 2] ** 2))))
+
+
+def kl_gaussian(m0, C0, m1, C1) -> float:
+    """Kullback-Leibler divergence ``KL(N(m0, C0) || N(m1, C1))`` in nats (chapter 04).
+
+    ``0.5 [tr(C1^-1 C0) + (m1 - m0)^T C1^-1 (m1 - m0) - k + ln(det C1 / det C0)]``
+    for k-dimensional Gaussians; zero if and only if the two are equal, and not
+    symmetric in its arguments. Computed with Cholesky factors (no explicit
+    inverse, log-determinants from the factors' diagonals).
+
+    Parameters
+    ----------
+    m0, m1 : array_like, shape (k,)
+        Means.
+    C0, C1 : array_like, shape (k, k)
+        Covariances, symmetric positive definite.
+
+    Raises
+    ------
+    ValueError
+        Shapes that do not match, NaN or inf, a covariance that is not
+        positive definite (naming the argument).
+    """
+    m0 = _as_array("m0", m0, 1)
+    m1 = _as_array("m1", m1, 1)
+    if m0.ndim != 1 or m1.shape != m0.shape:
+        raise ValueError(f"m0, m1: expected two vectors of the same length, got shapes "
+                         f"{m0.shape} and {m1.shape}")
+    k = m0.shape[0]
+    chol = []
+    for name, C in (("C0", C0), ("C1", C1)):
+        C = _as_array(name, C, 2)
+        if C.shape != (k, k):
+            raise ValueError(f"{name}: expected shape ({k}, {k}) to match the means, got {C.shape}")
+        try:
+            chol.append(np.linalg.cholesky(C))
+        except np.linalg.LinAlgError as exc:
+            raise ValueError(f"{name}: expected a positive-definite covariance") from exc
+    L0, L1 = chol
+    A = np.linalg.solve(L1, L0)            # tr(C1^-1 C0) = |L1^-1 L0|_F^2
+    w = np.linalg.solve(L1, m1 - m0)       # (m1-m0)^T C1^-1 (m1-m0) = |L1^-1 (m1-m0)|^2
+    logdet = 2.0 * (np.sum(np.log(np.diag(L1))) - np.sum(np.log(np.diag(L0))))
+    return float(0.5 * (np.sum(A * A) + w @ w - k + logdet))

@@ -119,3 +119,36 @@ def test_ate_closed_forms():
     assert ate(half, truth).position == pytest.approx(math.sqrt(0.5))
     with pytest.raises(ValueError, match="trajectory"):
         ate(np.zeros(3), np.zeros(3))
+
+
+def test_kl_gaussian_closed_forms():
+    from slamlib.metrics import kl_gaussian
+
+    # 1-D: ln(s1/s0) + (s0^2 + (m0 - m1)^2) / (2 s1^2) - 1/2
+    for m0, s0, m1, s1 in [(0.0, 1.0, 0.0, 1.0), (0.3, 0.5, -1.2, 2.0), (2.0, 3.0, 2.5, 0.7)]:
+        want = np.log(s1 / s0) + (s0**2 + (m0 - m1) ** 2) / (2 * s1**2) - 0.5
+        got = kl_gaussian([m0], [[s0**2]], [m1], [[s1**2]])
+        assert got == pytest.approx(want, rel=1e-12, abs=1e-15)
+    # independent coordinates: the divergences add up
+    a = kl_gaussian([0.3], [[0.25]], [-1.2], [[4.0]])
+    b = kl_gaussian([2.0], [[9.0]], [2.5], [[0.49]])
+    assert kl_gaussian([0.3, 2.0], np.diag([0.25, 9.0]), [-1.2, 2.5], np.diag([4.0, 0.49])) \
+        == pytest.approx(a + b, rel=1e-12)
+    # invariant under a common linear change of coordinates, zero for equal Gaussians
+    rng = np.random.default_rng(0)
+    T = rng.normal(size=(2, 2)) + 2 * np.eye(2)
+    m0, m1 = np.array([0.3, 2.0]), np.array([-1.2, 2.5])
+    C0, C1 = np.diag([0.25, 9.0]), np.diag([4.0, 0.49])
+    assert kl_gaussian(T @ m0, T @ C0 @ T.T, T @ m1, T @ C1 @ T.T) == pytest.approx(a + b, rel=1e-9)
+    assert kl_gaussian(m0, C0, m0, C0) == pytest.approx(0.0, abs=1e-14)
+
+
+def test_kl_gaussian_bad_input_names_the_argument():
+    from slamlib.metrics import kl_gaussian
+
+    with pytest.raises(ValueError, match="C1"):
+        kl_gaussian([0, 0], np.eye(2), [0, 0], np.diag([1.0, -1.0]))
+    with pytest.raises(ValueError, match="m0, m1"):
+        kl_gaussian([0, 0], np.eye(2), [0, 0, 0], np.eye(3))
+    with pytest.raises(ValueError, match="C0"):
+        kl_gaussian([0, 0], np.eye(3), [0, 0], np.eye(2))
