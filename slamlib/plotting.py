@@ -581,3 +581,127 @@ def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
         fig.suptitle(title)
     fig.tight_layout()
     return fig, axes
+
+
+# --------------------------------------------------------------------------- chapter 05
+# Added by the chapter on EKF SLAM with gating: where a wrong map entry is, the errors of
+# several runs side by side, and the NEES of one run against many.
+__all__ += ["plot_map_errors", "plot_error_comparison", "plot_nees_per_run"]
+
+
+def plot_map_errors(ax, filt, world, *, threshold: float = 0.3, color: str = "tab:purple",
+                    legend: bool = True):
+    """Mark the wrong entries of an estimated map on a top view (chapter 05).
+
+    A line joins each mapped landmark that lies more than ``threshold`` (m) from
+    the true marker with the same id to that marker; an x marks each mapped id
+    that is no marker of the world at all (a misread that made it into the map).
+
+    Parameters
+    ----------
+    ax : Axes
+        A top view (:func:`world_axes`).
+    filt : EKFSLAM
+        The filter (its ``landmarks`` dict).
+    world : slamlib.worlds.World
+        The true markers (``world.landmarks()``).
+    legend : bool
+        Put the legend beside the map (upper left, outside the axes).
+
+    Returns
+    -------
+    (misplaced, spurious) : (list of int, list of int)
+        The ids drawn with a line and with an x.
+    """
+    true = world.landmarks()
+    misplaced, spurious = [], []
+    for mid, p in filt.landmarks.items():
+        if mid in true and np.hypot(*(p - true[mid])) > threshold:
+            ax.plot([p[0], true[mid][0]], [p[1], true[mid][1]], "-", color=color, lw=1.2,
+                    label=None if misplaced else "mapped id -> its true marker")
+            misplaced.append(int(mid))
+        elif mid not in true:
+            ax.plot(*p, "x", color=color, ms=7, mew=1.5,
+                    label=None if spurious else "id not in the world")
+            spurious.append(int(mid))
+    if legend:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7)
+    return misplaced, spurious
+
+
+def plot_error_comparison(traces, *, colors=("tab:red", "tab:blue", "tab:green", "tab:purple"),
+                          marks=None, mark_label: str = "", axes=None,
+                          position_ylim=(1e-3, 10.0)):
+    """Position error (log scale) and heading error of several runs against time (chapter 05).
+
+    Parameters
+    ----------
+    traces : dict name -> Trace
+        One line per run (:mod:`slamlib.experiments`).
+    marks : array_like of float, optional
+        Times to tick at the bottom of the position panel (e.g. misread readings).
+    mark_label : str
+        Legend label of the ticks.
+    axes : two Axes (sharing x), optional
+
+    Returns
+    -------
+    (Figure, axes)
+    """
+    if axes is None:
+        fig, axes = plt.subplots(2, 1, sharex=True, figsize=(8, 4.8), dpi=DPI)
+    fig = axes[0].figure
+    for (name, tr), color in zip(traces.items(), colors):
+        axes[0].semilogy(tr.t, np.hypot(tr.error[:, 0], tr.error[:, 1]), color=color, lw=1,
+                         label=name)
+        axes[1].plot(tr.t, np.degrees(tr.error[:, 2]), color=color, lw=1, label=name)
+    lo, hi = position_ylim
+    if marks is not None and len(marks):
+        marks = np.asarray(marks, dtype=float)
+        axes[0].plot(marks, np.full(marks.size, 2.0 * lo), "|", color="k", ms=8,
+                     label=mark_label or None)
+    axes[0].set_ylabel("position error (m)")
+    axes[0].set_ylim(lo, hi)
+    axes[1].set_ylabel("heading error (deg)")
+    axes[1].set_xlabel("t (s)")
+    axes[0].legend(fontsize=8, loc="upper left", ncol=3)
+    for ax in axes:
+        ax.grid(True, lw=0.4, alpha=0.5)
+    return fig, axes
+
+
+def plot_nees_per_run(study, single=None, *, axes=None, single_label: str = "the recorded run"):
+    """Each run's time-averaged NEES, pose and heading, against the Monte-Carlo mean (chapter 05).
+
+    One dot per run of ``study`` (:class:`slamlib.studies.NEESStudy`), sorted;
+    a solid line at the mean over the runs, a dotted one at the value of a
+    consistent filter (3 for the pose, 1 for the heading), and optionally the
+    time averages of one more run (``single = (pose, heading)``) as a red line.
+
+    Returns
+    -------
+    (Figure, axes)
+    """
+    if axes is None:
+        fig, axes = plt.subplots(1, 2, figsize=(10, 3.2), dpi=DPI)
+    fig = axes[0].figure
+    n = study.n_runs
+    for ax, heading, dof in ((axes[0], False, 3), (axes[1], True, 1)):
+        means = np.sort(study.run_means(heading))
+        ax.plot(np.arange(1, n + 1), means, "o", color="tab:blue", ms=5,
+                label=f"one simulated run each (seeds {min(study.seeds)}-{max(study.seeds)})")
+        ax.axhline(means.mean(), color="tab:blue", lw=1.2,
+                   label=f"mean over the {n} runs: {means.mean():.2f}")
+        ax.axhline(dof, color="k", lw=0.9, ls=":", label=f"consistent filter: {dof}")
+        if single is not None:
+            v = float(single[1 if heading else 0])
+            ax.axhline(v, color="tab:red", lw=1.2, ls="--", label=f"{single_label}: {v:.2f}")
+        ax.set_xlabel("run (sorted by its mean)")
+        ax.set_ylabel("time-averaged NEES" + (" of the heading" if heading else " of the pose"))
+        ax.set_title(f"{'heading' if heading else 'pose'} ({dof} dof)")
+        top = max(means.max(), 0.0 if single is None else float(single[int(heading)]))
+        ax.set_ylim(0, 1.7 * top)                       # room for the legend above the dots
+        ax.grid(True, lw=0.4, alpha=0.5)
+        ax.legend(fontsize=7, loc="upper left")
+    fig.tight_layout()
+    return fig, axes

@@ -1,0 +1,43 @@
+"""Chapter 05's plotting helpers mark exactly the wrong map entries."""
+
+import matplotlib
+
+matplotlib.use("Agg")
+
+import matplotlib.pyplot as plt  # noqa: E402
+import numpy as np  # noqa: E402
+
+from slamlib import plotting  # noqa: E402
+
+
+class _World:
+    def landmarks(self):
+        return {1: np.array([0.0, 0.0]), 2: np.array([1.0, 0.0]), 3: np.array([0.0, 2.0])}
+
+
+class _Map:
+    landmarks = {1: np.array([0.05, 0.0]),      # 5 cm off: fine
+                 2: np.array([1.0, 0.5]),       # 0.5 m off: misplaced
+                 7: np.array([3.0, 3.0])}       # not in the world
+
+
+def test_plot_map_errors_marks_misplaced_and_spurious_ids():
+    fig, ax = plt.subplots()
+    misplaced, spurious = plotting.plot_map_errors(ax, _Map(), _World(), threshold=0.3)
+    assert misplaced == [2] and spurious == [7]
+    assert len(ax.lines) == 2
+    np.testing.assert_allclose(ax.lines[0].get_xydata(), [[1.0, 0.5], [1.0, 0.0]])
+    misplaced, _ = plotting.plot_map_errors(ax, _Map(), _World(), threshold=0.01, legend=False)
+    assert misplaced == [1, 2]
+    plt.close(fig)
+
+
+def test_plot_error_comparison_draws_the_position_error_norm():
+    class T:
+        t = np.array([0.0, 1.0])
+        error = np.array([[0.3, 0.4, 0.1], [0.0, 0.0, -0.2]])
+
+    fig, axes = plotting.plot_error_comparison({"a": T()}, marks=[0.5], mark_label="m")
+    np.testing.assert_allclose(axes[0].lines[0].get_ydata(), [0.5, 0.0])
+    np.testing.assert_allclose(axes[1].lines[0].get_ydata(), np.degrees([0.1, -0.2]))
+    plt.close(fig)
