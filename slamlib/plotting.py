@@ -59,8 +59,14 @@ def world_axes(ax=None, world=None, *, margin: float = 0.3, title: str | None = 
 
 
 def plot_world(ax, world, *, ids: bool = True, facing: bool = True, color: str = "k",
-               label: str | None = "markers (truth)", facing_length: float = 0.25):
-    """Draw the markers as stars, with their ids and (optionally) their facing direction."""
+               label: str | None = "markers (truth)", facing_length: float = 0.25,
+               label_spread: float = 0.3):
+    """Draw the markers as stars, with their ids and (optionally) their facing direction.
+
+    An id is written up and to the right of its star, except when another marker
+    lies within ``label_spread`` (m) to its right: then it goes to the left, so
+    that the ids of two close markers do not run into each other.
+    """
     p = world.positions
     ax.plot(p[:, 0], p[:, 1], "*", color=color, ms=9, label=label, zorder=4)
     if facing:
@@ -69,8 +75,15 @@ def plot_world(ax, world, *, ids: bool = True, facing: bool = True, color: str =
                     [m.y, m.y + facing_length * np.sin(m.yaw)], "-", color=color, lw=0.8,
                     alpha=0.6)
     if ids:
-        for m in world.markers:
-            ax.annotate(str(m.id), (m.x, m.y), textcoords="offset points", xytext=(4, 4),
+        xy = np.array([[m.x, m.y] for m in world.markers], dtype=float).reshape(-1, 2)
+        for i, m in enumerate(world.markers):
+            d = np.hypot(xy[:, 0] - m.x, xy[:, 1] - m.y)
+            d[i] = np.inf
+            close = (d < label_spread) & ((xy[:, 0] > m.x)
+                                          | ((xy[:, 0] == m.x) & (np.arange(len(d)) > i)))
+            left = bool(np.any(close))
+            ax.annotate(str(m.id), (m.x, m.y), textcoords="offset points",
+                        xytext=(-4, 4) if left else (4, 4), ha="right" if left else "left",
                         fontsize=8, color=color)
     return ax
 
@@ -705,3 +718,99 @@ def plot_nees_per_run(study, single=None, *, axes=None, single_label: str = "the
         ax.legend(fontsize=7, loc="upper left")
     fig.tight_layout()
     return fig, axes
+
+
+# --------------------------------------------------------------------------- chapters 03, 04
+# Added by the chapters on the map-based EKF (a zoomed top view, the d^2 histogram against
+# its chi-square density) and on the inverse observation (a Monte-Carlo cloud against its
+# linearised Gaussian).
+__all__ += ["plot_trace_zoom", "plot_d2_histogram", "plot_inverse_cloud"]
+
+
+def plot_trace_zoom(ax, az, trace, box, *, ellipse_every: float = 0.5,
+                    title: str | None = None):
+    """A zoomed top view of a filter run next to the whole one (chapter 03, Fig. 5).
+
+    Draws the zoom area ``box = (x_from, x_to, y_from, y_to)`` (m) as a dashed
+    rectangle on ``ax`` (a top view already drawn, e.g. with :func:`plot_trace`)
+    and the run on ``az`` limited to that box, with pose ellipses every
+    ``ellipse_every`` seconds, y down and no legend (the big view has it).
+    """
+    x0, x1, y0, y1 = box
+    ax.add_patch(plt.Rectangle((x0, y0), x1 - x0, y1 - y0, fill=False, ls="--", lw=0.8,
+                               color="k"))
+    world_axes(az, title=title or f"zoom (dashed box): ellipses every {ellipse_every:g} s")
+    plot_trace(az, trace, ellipse_every=ellipse_every)
+    az.set_aspect("equal", adjustable="box")
+    az.set_xlim(x0, x1)
+    az.set_ylim(y1, y0)                                # y down
+    legend = az.get_legend()
+    if legend is not None:
+        legend.remove()
+    return az
+
+
+def plot_d2_histogram(ax, d2, *, dof: int = 2, threshold: float | None = None,
+                      clip: float = 20.0, n_bins: int = 40, color: str = "tab:blue",
+                      label: str = "d² of the readings"):
+    """Histogram of squared Mahalanobis distances against the chi-square density (chapter 03).
+
+    Values at or above ``clip`` are counted in the last bin (so an over-confident
+    filter's tail stays visible); ``threshold`` draws the gate as a dashed line.
+    NaN values (readings that were not gated) are ignored.
+
+    Returns
+    -------
+    float
+        The fraction of the values at or above ``clip`` (the last bin's overflow).
+    """
+    from scipy.stats import chi2
+
+    d2 = np.asarray(d2, dtype=float)
+    d2 = d2[np.isfinite(d2)]
+    bins = np.linspace(0.0, clip, n_bins + 1)
+    ax.hist(np.minimum(d2, np.nextafter(clip, 0.0)), bins=bins, density=True, color=color,
+            alpha=0.6, label=label)
+    s = np.linspace(0.01, clip, 300)
+    ax.plot(s, chi2.pdf(s, dof), "k", lw=1.2, label=f"chi-square, {dof} dof")
+    if threshold is not None and np.isfinite(threshold):
+        ax.axvline(threshold, color="k", ls="--", lw=0.8, label=f"gate {threshold:.2f}")
+    ax.set_xlabel(f"d² (last bin: {clip:g} and above)")
+    ax.set_ylabel("density")
+    ax.legend(fontsize=7)
+    return float(np.mean(d2 >= clip)) if d2.size else float("nan")
+
+
+def plot_inverse_cloud(ax, cloud, mean, cov, *, pose=None, nsigma: float = 2.0,
+                       title: str | None = None, legend_loc: str = "upper right"):
+    """Samples of a transformed Gaussian against its linearisation (chapter 04).
+
+    Draws the samples (grey dots), the linearised mean (orange +) and its
+    ``nsigma`` ellipse, the samples' mean (black x) and optionally the robot's
+    mean pose, on a top view.
+
+    Parameters
+    ----------
+    cloud : array_like, shape (N, 2)
+        The samples, e.g. ``inverse_observe`` of sampled poses and readings.
+    mean, cov : array_like, shapes (2,), (2, 2)
+        The linearised Gaussian (``g`` at the means, ``J1 P J1^T + J2 R J2^T``).
+    pose : array_like, shape (3,), optional
+
+    The ellipse's legend entry gives the share of a Gaussian inside it (86.5 % at
+    2 sigma); :func:`slamlib.metrics.mahalanobis2` counts the samples inside.
+    """
+    cloud = np.asarray(cloud, dtype=float)
+    expected = 1.0 - np.exp(-0.5 * nsigma**2)          # chi-square, 2 dof
+    world_axes(ax, title=title)
+    ax.plot(cloud[:, 0], cloud[:, 1], ".", ms=1.5, alpha=0.35, color="tab:gray",
+            label="samples")
+    plot_covariance_ellipse(ax, mean, cov, nsigma=nsigma, color="tab:orange", fill=False,
+                            alpha=1.0, lw=2,
+                            label=f"linearised {nsigma:g}σ ({100 * expected:.1f} %)")
+    ax.plot(*mean, "+", color="tab:orange", ms=10, mew=2, label="linearised mean")
+    ax.plot(*cloud.mean(axis=0), "x", color="k", ms=8, mew=2, label="sample mean")
+    if pose is not None:
+        plot_robot(ax, pose, size=0.2, label="robot (mean pose)")
+    ax.legend(fontsize=7, loc=legend_loc)
+    return ax
