@@ -304,12 +304,17 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
 __all__ += ["check_numerical_jacobian"]
 
 
-def check_numerical_jacobian(fn, verbose: bool = True) -> bool:
-    """Check a student's ``fn(f, x) -> J`` (a finite-difference Jacobian, appendix A).
+def check_numerical_jacobian(fn, verbose: bool = True, eps: float = 1e-3,
+                             tol: float = 5e-7) -> bool:
+    """Check a student's ``fn(f, x, eps=1e-6) -> J`` (a finite-difference Jacobian, appendix A).
 
-    It is tried on functions whose Jacobians are known in closed form: a
-    linear map (3 -> 2), a nonlinear one (3 -> 3) and the range-bearing of a
-    point; the answer must have shape (outputs, inputs) and be within 1e-5.
+    It is called with ``eps=1e-3`` on functions whose Jacobians are known in
+    closed form: a linear map (3 -> 2), a nonlinear one (3 -> 3) and the
+    range-bearing of a point. The answer must have shape (outputs, inputs) and
+    be within ``tol`` = 5e-7 of the exact Jacobian: a central difference is
+    (error of order eps^2, about 1e-7 here), a one-sided one is not (order eps,
+    about 1e-3). Named mistakes: a one-sided difference, dividing by eps
+    instead of 2 eps, the transpose, an ``eps`` argument that is not accepted.
     """
     say = _printer(verbose)
 
@@ -327,28 +332,50 @@ def check_numerical_jacobian(fn, verbose: bool = True) -> bool:
          lambda p: np.array([[p[0], p[1]] / np.hypot(*p),
                              [-p[1] / (p @ p), p[0] / (p @ p)]])),
     ]
+
+    def one_sided(f, x, sign):
+        cols = [sign * (f(x + sign * eps * e) - f(x)) / eps for e in np.eye(x.size)]
+        return np.stack(cols, axis=1)
+
     for label, f, x, exact in cases:
-        out, problem = _call(fn, f, x.copy())
+        out, problem = _call(lambda f_, x_: fn(f_, x_, eps=eps), f, x.copy())
         if problem:
-            say(_not_ready(name, problem, "it"))
+            if problem.startswith("it raised TypeError") and "eps" in problem:
+                say(f"{name}: {problem}. The checker calls {name}(f, x, eps={eps:g}): "
+                    f"define it as def {name}(f, x, eps=1e-6) and use eps as the step.")
+            else:
+                say(_not_ready(name, problem, "it"))
             return False
-        J = np.asarray(out, dtype=float)
+        try:
+            J = np.asarray(out, dtype=float)
+        except (TypeError, ValueError):
+            say(f"{name}: expected a numeric (m, n) array, got {type(out).__name__}.")
+            return False
         Je = exact(x)
         if J.shape != Je.shape:
             transposed = J.shape == Je.T.shape
             hint = " (transposed: rows are outputs, columns inputs)" if transposed else ""
             say(f"{name}: for {label} expected shape {Je.shape}, got {J.shape}{hint}.")
             return False
-        err = float(np.max(np.abs(J - Je)))
-        if err > 1e-5:
-            c = compare_jacobians("J", J, Je, atol=1e-5, rtol=1e-5)
-            hint = ""
-            if err < 1e-3:
-                hint = (" The error is small but too large: a one-sided difference is only "
-                        "first-order accurate; use central differences.")
-            say(f"{name}: wrong for {label} (largest error {err:.2e}). {c.message}.{hint}")
+        err = float(np.max(np.abs(J - Je))) if np.all(np.isfinite(J)) else float("inf")
+        if err > tol:
+            c = compare_jacobians("J", J, Je, atol=tol, rtol=0.0)
+            say(f"{name}: wrong for {label} with eps = {eps:g} (largest error {err:.2e}, "
+                f"allowed {tol:.0e}). {c.message}.")
+            if np.allclose(J, 2.0 * Je, rtol=1e-4, atol=tol):
+                say("  Hint: your J is twice the Jacobian: you divide by eps, but the central "
+                    "difference f(x + eps) - f(x - eps) spans 2 eps. Divide by 2 eps.")
+            elif any(np.allclose(J, one_sided(f, x, sg), rtol=1e-6, atol=1e-9) for sg in (1, -1)):
+                say("  Hint: this is a one-sided difference (f(x + eps) - f(x)) / eps, whose "
+                    "error is of order eps. Use the central difference "
+                    "(f(x + eps) - f(x - eps)) / (2 eps): its error is of order eps^2.")
+            elif err < 1e-2:
+                say("  Hint: the error is small but too large for a central difference at this "
+                    "eps: is it (f(x + eps e_j) - f(x - eps e_j)) / (2 eps), with the eps the "
+                    "checker passes?")
             return False
-    say(f"{name}: correct on {len(cases)} functions with known Jacobians.")
+    say(f"{name}: correct on {len(cases)} functions with known Jacobians (eps = {eps:g}, "
+        f"error below {tol:.0e}).")
     return True
 
 
@@ -539,7 +566,8 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
     used instead of ``S^-1``, ``D`` returned instead of ``D^2``, the report's
     eq. (6) (``h`` subtracted twice), the off-diagonal of ``S`` ignored, or a
     wrong threshold (1 degree of freedom, the probability itself, ``1 - p``,
-    a fixed 5.99, the comparison reversed).
+    a fixed 5.99, the comparison reversed), or the pair returned as
+    ``(accept, d2)``.
     """
     from scipy.stats import chi2
 
@@ -552,6 +580,12 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
         out, problem = _call(fn, z.copy(), z_pred.copy(), S.copy(), prob)
         if problem:
             say(_not_ready(name, problem, "it"))
+            return False
+        if (isinstance(out, (tuple, list)) and len(out) == 2
+                and isinstance(out[0], (bool, np.bool_))
+                and not isinstance(out[1], (bool, np.bool_))):
+            say(f"{name}: it returns (accept, d2), a True/False first: return the pair in the "
+                f"order (d2, accept).")
             return False
         try:
             d2, accept = out
@@ -607,16 +641,20 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
     wrong_rules = {
         "it accepts when d2 is ABOVE the threshold: the comparison is reversed":
             lambda d2, p, t: d2 > t,
-        "the threshold is chi2.ppf(prob, 1): the innovation has 2 degrees of freedom":
+        "your threshold looks like chi2.ppf(prob, 1); use chi2.ppf(prob, 2): the "
+        "innovation has 2 degrees of freedom (range and bearing)":
             lambda d2, p, t: d2 < chi2.ppf(p, 1),
-        "it compares d2 with the probability itself: the threshold is the chi-square "
+        "it compares d2 with the probability itself; compare it with the chi-square "
         "quantile chi2.ppf(prob, 2)":
             lambda d2, p, t: d2 < p,
-        "the threshold is chi2.ppf(1 - prob, 2): prob is the probability INSIDE the gate":
+        "your threshold looks like chi2.ppf(1 - prob, 2); use chi2.ppf(prob, 2): prob is "
+        "the probability inside the gate":
             lambda d2, p, t: d2 < chi2.ppf(1.0 - p, 2),
-        "it compares d2 with sqrt(threshold): compare D^2 with the chi-square quantile itself":
+        "it compares d2 with sqrt(threshold); compare D^2 with the chi-square quantile "
+        "chi2.ppf(prob, 2) itself":
             lambda d2, p, t: d2 < np.sqrt(t),
-        "the threshold is fixed at 5.99, right only for prob = 0.95: use chi2.ppf(prob, 2)":
+        "your threshold looks fixed at 5.99, which is right only for prob = 0.95; use "
+        "chi2.ppf(prob, 2)":
             lambda d2, p, t: d2 < 5.991,
     }
     for (z, z_pred, _S, prob), (d2, acc), thr in zip(cases, got, thresholds):

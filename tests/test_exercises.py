@@ -350,6 +350,37 @@ def test_gate_checker_names_a_wrong_threshold(capsys, threshold, words):
     assert "wrong decision" in out and words in out
 
 
+def test_gate_checker_hints_say_what_to_use_not_what_went_wrong(capsys):
+    # a hint names the student's threshold as what it LOOKS like, then what to use instead
+    from scipy.stats import chi2
+
+    from slamlib.exercises import check_gate
+
+    for wrong in (lambda p: chi2.ppf(1.0 - p, 2), lambda p: chi2.ppf(p, 1)):
+        def mine(z, z_pred, S, prob, wrong=wrong):
+            d2, _ = _gate_answer(z, z_pred, S, prob)
+            return d2, d2 < wrong(prob)
+
+        assert check_gate(mine) is False
+        hint = [line for line in capsys.readouterr().out.splitlines() if "Hint" in line]
+        assert len(hint) == 1
+        assert "your threshold looks like" in hint[0] and "use chi2.ppf(prob, 2)" in hint[0]
+        assert not hint[0].startswith("  Hint: the threshold is")
+
+
+def test_gate_checker_names_a_reversed_pair(capsys):
+    from slamlib.exercises import check_gate
+
+    def reversed_pair(z, z_pred, S, prob):
+        d2, accept = _gate_answer(z, z_pred, S, prob)
+        return accept, d2
+
+    assert check_gate(reversed_pair) is False
+    out = capsys.readouterr().out
+    assert "(accept, d2)" in out and "order (d2, accept)" in out
+    assert "d2 is wrong" not in out
+
+
 def test_gate_checker_rejects_a_wrong_shape_without_raising(capsys):
     from slamlib.exercises import check_gate
 

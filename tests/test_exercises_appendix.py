@@ -1,4 +1,9 @@
-"""The appendix's checker judges finite-difference Jacobians correctly."""
+"""The appendix's checker judges finite-difference Jacobians correctly.
+
+The checker calls the student's function with eps = 1e-3 and allows an error
+of 5e-7: a central difference passes (about 1e-7), a one-sided one fails
+(about 1e-3), and each known mistake gets its own hint.
+"""
 
 import numpy as np
 
@@ -6,28 +11,72 @@ from slamlib.checks import numerical_jacobian
 from slamlib.exercises import check_numerical_jacobian
 
 
-def forward_difference(f, x, eps=1e-4):
+def forward_difference(f, x, eps=1e-6):
     return np.stack([(f(x + eps * e) - f(x)) / eps for e in np.eye(len(x))], axis=1)
 
 
-def test_accepts_central_differences():
-    assert check_numerical_jacobian(numerical_jacobian, verbose=False)
+def backward_difference(f, x, eps=1e-6):
+    return np.stack([(f(x) - f(x - eps * e)) / eps for e in np.eye(len(x))], axis=1)
+
+
+def central_over_eps(f, x, eps=1e-6):
+    return np.stack([(f(x + eps * e) - f(x - eps * e)) / eps for e in np.eye(len(x))], axis=1)
+
+
+def test_accepts_central_differences(capsys):
+    assert check_numerical_jacobian(numerical_jacobian)
+    assert "correct" in capsys.readouterr().out
+
+
+def test_uses_the_eps_it_passes():
+    # a central difference with a large step is not accurate enough: the eps is really used
+    seen = []
+
+    def spy(f, x, eps=1e-6):
+        seen.append(eps)
+        return numerical_jacobian(f, x, eps=eps)
+
+    assert check_numerical_jacobian(spy, verbose=False)
+    assert set(seen) == {1e-3}
+    assert not check_numerical_jacobian(lambda f, x, eps=1e-6: numerical_jacobian(f, x, eps=0.05),
+                                        verbose=False)
 
 
 def test_rejects_one_sided_differences_with_a_hint(capsys):
-    assert not check_numerical_jacobian(forward_difference)
-    assert "central differences" in capsys.readouterr().out
+    for fd in (forward_difference, backward_difference):
+        assert not check_numerical_jacobian(fd)
+        out = capsys.readouterr().out
+        assert "one-sided" in out and "central difference" in out
+
+
+def test_a_one_sided_difference_that_ignores_eps_fails_too(capsys):
+    # eps = 1e-6 hard-coded: error about 1e-6, still above the tolerance
+    assert not check_numerical_jacobian(lambda f, x, eps=1e-6: forward_difference(f, x, 1e-6))
+    assert "too large" in capsys.readouterr().out
+
+
+def test_dividing_by_eps_gets_its_own_hint(capsys):
+    assert not check_numerical_jacobian(central_over_eps)
+    out = capsys.readouterr().out
+    assert "divide by 2 eps" in out.lower()
+    assert "one-sided" not in out
 
 
 def test_rejects_transposed_and_stub(capsys):
-    assert not check_numerical_jacobian(lambda f, x: numerical_jacobian(f, x).T)
+    assert not check_numerical_jacobian(lambda f, x, eps=1e-6: numerical_jacobian(f, x, eps).T)
     assert "transposed" in capsys.readouterr().out
-    assert not check_numerical_jacobian(lambda f, x: None)
+    assert not check_numerical_jacobian(lambda f, x, eps=1e-6: None)
     assert "not written yet" in capsys.readouterr().out
 
 
+def test_a_function_without_eps_is_told_the_signature(capsys):
+    assert not check_numerical_jacobian(lambda f, x: numerical_jacobian(f, x))
+    out = capsys.readouterr().out
+    assert "eps=1e-6" in out and "TypeError" in out
+
+
 def test_a_student_error_is_reported_not_raised(capsys):
-    def broken(f, x):
+    def broken(f, x, eps=1e-6):
         raise KeyError("oops")
     assert not check_numerical_jacobian(broken)
     assert "KeyError" in capsys.readouterr().out
