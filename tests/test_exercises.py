@@ -532,3 +532,94 @@ def test_history_index_checker_stub_and_bad_output_without_raising(capsys):
 
     assert check_history_index(boom) is False
     assert "KeyError" in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------- chapter 07
+def _view_answer(dx, dy, th, half, rmax, *, wrap=True, sign=-1.0, swap=False, half_scale=1.0,
+                 squared=False):
+    from slamlib.models import wrap_angle
+
+    a = np.arctan2(dx, dy) if swap else np.arctan2(dy, dx)
+    b = a + sign * th
+    b = wrap_angle(b) if wrap else b
+    d = dx * dx + dy * dy if squared else np.hypot(dx, dy)
+    return (d <= rmax) & (np.abs(b) <= half_scale * half)
+
+
+def _view_fn(**kw):
+    def fn(pose, pts, half, rmax):
+        pts = np.asarray(pts)
+        return _view_answer(pts[:, 0] - pose[0], pts[:, 1] - pose[1], pose[2], half, rmax, **kw)
+    return fn
+
+
+def test_view_checker_accepts_the_library_and_an_independent_answer(capsys):
+    import math
+
+    from slamlib.exercises import check_in_field_of_view
+    from slamlib.explore import in_field_of_view
+
+    def loop(pose, pts, half, rmax):
+        # the angle to the heading from the dot product: no atan2, no wrap
+        out = []
+        for x, y in pts:
+            dx, dy = x - pose[0], y - pose[1]
+            d = math.hypot(dx, dy)
+            c = (dx * math.cos(pose[2]) + dy * math.sin(pose[2])) / d
+            out.append(d <= rmax and math.acos(max(-1.0, min(1.0, c))) <= half)
+        return out
+
+    assert check_in_field_of_view(in_field_of_view) is True
+    assert check_in_field_of_view(loop) is True
+    assert check_in_field_of_view(_view_fn()) is True
+    assert capsys.readouterr().out.count("correct") == 3
+
+
+@pytest.mark.parametrize("kw, words", [
+    ({"wrap": False}, "must be wrapped"),
+    ({"sign": 1.0}, "not + theta"),
+    ({"swap": True}, "(dy, dx)"),
+    ({"half_scale": 2.0}, "HALF the field of view"),
+    ({"half_scale": 0.5}, "do not halve it again"),
+    ({"squared": True}, "not its square"),
+])
+def test_view_checker_names_the_mistake(capsys, kw, words):
+    from slamlib.exercises import check_in_field_of_view
+
+    assert check_in_field_of_view(_view_fn(**kw)) is False
+    out = capsys.readouterr().out
+    assert "not right yet" in out and words in out
+
+
+def test_view_checker_wrap_to_0_2pi_and_not_written(capsys):
+    from slamlib.exercises import check_in_field_of_view
+
+    def mod(pose, pts, half, rmax):
+        d = np.asarray(pts) - pose[:2]
+        b = np.mod(np.arctan2(d[:, 1], d[:, 0]) - pose[2], 2 * np.pi)
+        return (np.hypot(d[:, 0], d[:, 1]) <= rmax) & (np.abs(b) <= half)
+
+    assert check_in_field_of_view(mod) is False
+    assert "not to [0, 2 pi)" in capsys.readouterr().out
+    assert check_in_field_of_view(lambda *a: None) is False
+    assert "not written yet" in capsys.readouterr().out
+    assert check_in_field_of_view(lambda *a: True) is False
+    assert "one True/False per point" in capsys.readouterr().out
+
+    def boom(*a):
+        raise KeyError("x")
+
+    assert check_in_field_of_view(boom) is False
+    assert "raised KeyError" in capsys.readouterr().out
+
+
+def test_view_checker_cases_need_the_wrap():
+    # the unwrapped answer must be wrong somewhere, or the checker would not test the wrap
+    from slamlib.exercises import _random_view_cases
+    from slamlib.explore import in_field_of_view
+
+    cases = list(_random_view_cases(12, 7))
+    differs = sum(int(np.any(_view_fn(wrap=False)(p, pts, h, r) != in_field_of_view(p, pts, h, r)))
+                  for p, pts, h, r in cases)
+    inside = sum(int(in_field_of_view(p, pts, h, r).sum()) for p, pts, h, r in cases)
+    assert differs >= 2 and 20 <= inside <= 400
