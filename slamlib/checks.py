@@ -63,12 +63,17 @@ class JacobianComparison:
         ``(row, col, got, expected)`` for each entry that disagrees.
     message : str
         A sentence a student can act on.
+    max_error : float
+        The largest ``|got - expected|`` over ALL entries (right ones included),
+        so that a passing formula's agreement can be shown too; ``inf`` when
+        the shapes differ or ``got`` is not numeric.
     """
 
     name: str
     ok: bool
     wrong: list
     message: str
+    max_error: float = float("inf")
 
     def __bool__(self) -> bool:
         return self.ok
@@ -85,13 +90,18 @@ def compare_jacobians(name: str, got, expected, atol: float = 1e-6, rtol: float 
     if got.shape != expected.shape:
         return JacobianComparison(name, False, [],
                                   f"{name}: shape {got.shape}, expected {expected.shape}")
+    diff = np.abs(got - expected)
+    max_error = float(np.max(diff)) if diff.size else 0.0
+    if not np.all(np.isfinite(diff)):
+        max_error = float("inf")
     bad = ~np.isclose(got, expected, atol=atol, rtol=rtol)
     wrong = [(int(i), int(j), float(got[i, j]), float(expected[i, j]))
              for i, j in zip(*np.nonzero(bad))]
     if not wrong:
-        return JacobianComparison(name, True, [], f"{name}: correct")
+        return JacobianComparison(name, True, [], f"{name}: correct", max_error)
     parts = []
     for i, j, g, e in wrong:
         hint = " (sign flipped)" if np.isclose(g, -e, atol=atol, rtol=rtol) else ""
         parts.append(f"{name}[{i},{j}] = {g:.6g}, expected {e:.6g}{hint}")
-    return JacobianComparison(name, False, wrong, f"{name}: wrong entries: " + "; ".join(parts))
+    return JacobianComparison(name, False, wrong, f"{name}: wrong entries: " + "; ".join(parts),
+                              max_error)

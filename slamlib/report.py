@@ -20,20 +20,23 @@ import numpy as np
 
 from .checks import JacobianComparison, compare_jacobians, numerical_jacobian
 from .models import (
+    compose_point,
     inverse_observation_jacobians,
     inverse_observe,
     motion_jacobians,
     motion_model,
     observation_jacobians,
     observe,
+    polar_to_cartesian,
     wrap_angle,
 )
 
 __all__ = [
     "printed_A", "printed_W", "printed_H_pose", "printed_H_landmark", "printed_H_pose_slam",
     "printed_J1", "printed_J2", "printed_innovation", "printed_mahalanobis2",
+    "printed_g", "printed_g_with_noise", "printed_G1",
     "Erratum", "ErratumEvidence", "ERRATA", "CORRECT_AS_PRINTED", "TextErratum", "TEXT_ERRATA",
-    "CHECK_POSE", "CHECK_LANDMARK", "CHECK_Z",
+    "CHECK_POSE", "CHECK_LANDMARK", "CHECK_Z", "CHECK_NEW_LANDMARK",
 ]
 
 #: The point at which the errata are checked: a generic pose and landmark (no
@@ -41,6 +44,8 @@ __all__ = [
 CHECK_POSE = np.array([1.3, -0.4, 0.7])
 CHECK_LANDMARK = np.array([3.1, 0.9])
 CHECK_Z = observe(CHECK_POSE, CHECK_LANDMARK)
+#: A second marker, added to a state that already holds CHECK_LANDMARK (the errata of g and G1).
+CHECK_NEW_LANDMARK = np.array([2.2, -1.7])
 
 
 # --------------------------------------------------------------------------- section III.C
@@ -100,6 +105,29 @@ def printed_J2(pose, z):
     sb, cb, sn, cn = np.sin(z[1]), np.cos(z[1]), np.sin(pose[2]), np.cos(pose[2])
     d_theta = np.array([-rho * np.sin(a), -rho * sb * sn + rho * cb * cn])
     return np.column_stack([d_rho, d_theta]).T
+
+
+def printed_g(x, z):
+    """Report V.B, the state after adding a landmark as printed: ``[x_B; x_B (+) z_f]``.
+
+    ``x`` is the whole state ``[x_B, x_F1, ...]``; as printed, g keeps only the
+    robot's pose ``x_B`` and appends the new landmark, so every landmark already
+    in the state is dropped.
+    """
+    x = np.asarray(x, float)
+    return np.concatenate([x[:3], inverse_observe(x[:3], z)])
+
+
+def printed_g_with_noise(pose, z, v):
+    """Report V.B, ``x_B (+) (z_f + v)`` taken literally: the reading's noise ``v`` (polar:
+    range, bearing) added to the CARTESIAN point ``z_f = [rho cos b, rho sin b]``."""
+    return compose_point(pose, polar_to_cartesian(z) + np.asarray(v, float))
+
+
+def printed_G1(pose, z):
+    """Report V.B, ``G1 = dg/dx = [I; J1]`` as printed: a 3x3 identity over the printed J1
+    (5x3), whatever the number of landmarks in the state."""
+    return np.vstack([np.eye(3), printed_J1(pose, z)])
 
 
 # --------------------------------------------------------------------------- section V.C
@@ -200,6 +228,67 @@ def _check_wrap():
                            compare_jacobians("wrapped innovation", y[None, :], expected))
 
 
+def _check_J2_column(j):
+    # One column of the printed J2 (a row of the printed matrix, i.e. once un-transposed).
+    def check():
+        fd = numerical_jacobian(lambda q: inverse_observe(CHECK_POSE, q), CHECK_Z)[:, [j]]
+        what = ("d rho", "d theta")[j]
+        return ErratumEvidence(
+            compare_jacobians(f"printed dg/{what}", printed_J2(CHECK_POSE, CHECK_Z)[[j]].T, fd),
+            compare_jacobians(f"J2[:, {j}]",
+                              inverse_observation_jacobians(CHECK_POSE, CHECK_Z)[1][:, [j]], fd))
+    return check
+
+
+def _slam_with_two_landmarks():
+    """The library's EKFSLAM at CHECK_POSE: add CHECK_LANDMARK, then CHECK_NEW_LANDMARK.
+
+    Returns the state and covariance before and after the second landmark, and its reading.
+    """
+    from .ekf import EKFSLAM
+
+    P0 = np.diag([0.01, 0.02, 0.003])
+    R = np.diag([0.05**2, np.radians(3.0) ** 2])
+    f = EKFSLAM(CHECK_POSE, P0, np.eye(2) * 1e-4, R, gate=None)
+    f.update([1], [CHECK_Z])
+    x0, P_before = f.x, f.P
+    z_new = observe(CHECK_POSE, CHECK_NEW_LANDMARK)
+    f.update([2], [z_new])
+    return x0, P_before, f.x, f.P, z_new, R
+
+
+def _true_g(x, z):
+    """The augmentation: the whole state, then the new landmark from the pose and reading."""
+    x = np.asarray(x, float)
+    return np.concatenate([x, inverse_observe(x[:3], z)])
+
+
+def _check_g():
+    x0, _, x1, _, z_new, _ = _slam_with_two_landmarks()
+    ref = _true_g(x0, z_new)[None, :]
+    return ErratumEvidence(compare_jacobians("printed g(x, z)", printed_g(x0, z_new)[None, :], ref),
+                           compare_jacobians("EKFSLAM state after the update", x1[None, :], ref))
+
+
+def _check_g_noise():
+    # d g / d v: the reading's noise enters through the polar reading, z + v
+    fd = numerical_jacobian(lambda v: inverse_observe(CHECK_POSE, CHECK_Z + v), np.zeros(2))
+    lit = numerical_jacobian(lambda v: printed_g_with_noise(CHECK_POSE, CHECK_Z, v), np.zeros(2))
+    return ErratumEvidence(compare_jacobians("d/dv of x_B (+) (z_f + v)", lit, fd),
+                           compare_jacobians("J2", inverse_observation_jacobians(CHECK_POSE,
+                                                                                 CHECK_Z)[1], fd))
+
+
+def _check_G1():
+    x0, P, _, P1, z_new, R = _slam_with_two_landmarks()
+    G1 = numerical_jacobian(lambda x: _true_g(x, z_new), x0)          # (7, 5)
+    G2 = numerical_jacobian(lambda q: _true_g(x0, q), z_new)          # (7, 2)
+    ref = G1 @ P @ G1.T + G2 @ R @ G2.T
+    return ErratumEvidence(compare_jacobians("printed G1", printed_G1(x0[:3], z_new), G1),
+                           compare_jacobians("EKFSLAM covariance after the update", P1, ref,
+                                             atol=1e-9))
+
+
 def _check_A():
     x, u, dt, b = CHECK_POSE, np.array([0.3, 0.2]), 0.1, 0.23
     fd = numerical_jacobian(lambda s: motion_model(s, u, dt, b), x, angle_outputs=[2])
@@ -238,12 +327,31 @@ ERRATA: tuple[Erratum, ...] = (
     Erratum("unwrapped innovation", "V.C eq. (1)", "05", "omission",
             "y = z - h(x) for the bearing too",
             "the bearing component of y wrapped to [-pi, pi)", _check_wrap),
+    Erratum("g drops the map", "V.B", "04", "formula",
+            "x^+ = g(x, z, v) = [x_B; x_B (+) (z_f + v)]",
+            "x^+ = [x; x_B (+) z_f]: the whole state (robot AND landmarks already mapped), then "
+            "the new landmark", _check_g),
+    Erratum("noise added to z_f", "V.B", "04", "formula",
+            "x_B (+) (z_f + v): the reading's noise v (range, bearing) added to the cartesian "
+            "point z_f",
+            "the new landmark is x_B (+) p(z + v), p the polar-to-cartesian map: v enters through "
+            "the polar reading, so dg/dv = J2 (as the report's own J2 has it), not a rotation",
+            _check_g_noise),
+    Erratum("G1 size", "V.B", "04", "formula",
+            "G1 = dg/dx = [I; J1] (I 3x3: 5x3)",
+            "with n landmarks in the state, G1 = [[I_(3+2n)], [J1, 0]] of size (5+2n) x (3+2n), "
+            "and P^+ = G1 P G1^T + G2 R G2^T with G2 = [0; J2]", _check_G1),
 )
 
 #: Checked and found right (shown in the appendix for completeness).
 CORRECT_AS_PRINTED: tuple[Erratum, ...] = (
     Erratum("A_k", "III.C", "01", "correct", "A_k", "A_k (derivative w.r.t. x_{k-1})", _check_A),
     Erratum("W_k", "III.C", "01", "correct", "W_k", "W_k", _check_W),
+    Erratum("dg/d rho", "V.B", "04", "correct", "d(x_B (+) z_f)/d rho",
+            "the first column of J2", _check_J2_column(0)),
+    Erratum("dg/d theta", "V.B", "04", "correct",
+            "d(x_B (+) z_f)/d theta (printed as a column: right once J2 is un-transposed)",
+            "the second column of J2", _check_J2_column(1)),
 )
 
 
@@ -272,4 +380,21 @@ TEXT_ERRATA: tuple[TextErratum, ...] = (
                 "right in exact arithmetic, but it loses symmetry and positive definiteness "
                 "to rounding; the Joseph form (I-KH) P (I-KH)^T + K R K^T, or P - K S K^T "
                 "symmetrised, keeps them"),
+    TextErratum("II.A-C", "00", "x ~ N(x, P): one symbol for the random state and its mean",
+                "x ~ N(x_hat, P): the estimate x_hat is the mean of the distribution of the "
+                "true state x"),
+    TextErratum("V.A, V.B", "03, 04", "theta for the robot's heading (^N theta_B) and for the "
+                "reading's bearing (^B theta), both written theta in J1 and J2",
+                "two symbols, e.g. theta for the heading and beta for the bearing: the landmark "
+                "direction in N is theta + beta"),
+    TextErratum("V.C", "05", "accept when D^2 < X^2_ij, the threshold left unspecified",
+                "D^2 is chi-square with 2 degrees of freedom (one range-bearing reading): accept "
+                "when D^2 < chi2_2(p) = -2 ln(1 - p) for a chosen probability p, e.g. 5.99 for "
+                "p = 0.95"),
+    TextErratum("VI.A, Figs. 6 and 8", "05, 06",
+                "the errors stay within 2 sigma, so the estimate is consistent (from one run)",
+                "not backed: within one run the errors are strongly correlated in time, so the "
+                "fraction of the run inside the band says little (the course's recorded SLAM run "
+                "has y outside it about a third of the time); the test is the NEES averaged "
+                "over Monte-Carlo runs against its chi-square band (chapters 05 and 06)"),
 )

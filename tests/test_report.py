@@ -40,3 +40,66 @@ def test_printed_H_errors_hold_at_random_points_not_just_one():
         fd = numerical_jacobian(lambda p, lm=lm: observe(p, lm), pose, angle_outputs=[1])
         assert not np.isclose(report.printed_H_pose(pose, lm)[1, 1], fd[1, 1])
         assert np.isclose(report.printed_H_pose(pose, lm)[1, 1], -fd[1, 1], rtol=1e-5)
+
+
+def test_max_error_covers_every_entry_not_only_the_wrong_ones():
+    from slamlib.checks import compare_jacobians
+
+    expected = np.array([[1.0, 2.0], [3.0, 4.0]])
+    got = expected + np.array([[1e-9, -3e-8], [0.0, 0.0]])        # all within tolerance
+    c = compare_jacobians("J", got, expected)
+    assert c.ok and c.wrong == []
+    assert np.isclose(c.max_error, 3e-8, rtol=1e-6)
+    got[1, 0] = -3.0                                             # one sign flipped
+    c = compare_jacobians("J", got, expected)
+    assert not c.ok and np.isclose(c.max_error, 6.0)
+    assert np.isinf(compare_jacobians("J", np.zeros(3), expected).max_error)
+    assert np.isinf(compare_jacobians("J", [[np.nan, 2], [3, 4]], expected).max_error)
+
+
+def _erratum(key, table=report.ERRATA):
+    return next(e for e in table if e.key == key)
+
+
+def test_the_report_g_drops_the_landmarks_already_in_the_state():
+    ev = _erratum("g drops the map").check()
+    assert "shape (1, 5), expected (1, 7)" in ev.printed.message
+    x = np.r_[report.CHECK_POSE, report.CHECK_LANDMARK]
+    z = report.CHECK_Z
+    out = report.printed_g(x, z)
+    assert out.shape == (5,)
+    np.testing.assert_array_equal(out[:3], x[:3])          # the pose kept, the landmark lost
+
+
+def test_literal_noise_on_the_cartesian_point_gives_a_rotation_not_J2():
+    pose, z = report.CHECK_POSE, report.CHECK_Z
+    lit = numerical_jacobian(lambda v: report.printed_g_with_noise(pose, z, v), np.zeros(2))
+    c, s = np.cos(pose[2]), np.sin(pose[2])
+    np.testing.assert_allclose(lit, [[c, -s], [s, c]], atol=1e-8)
+    # the true noise Jacobian, written out: d/d(rho, beta) of x + rho [cos, sin](theta + beta)
+    a = pose[2] + z[1]
+    J2 = np.array([[np.cos(a), -z[0] * np.sin(a)], [np.sin(a), z[0] * np.cos(a)]])
+    ev = _erratum("noise added to z_f").check()
+    assert not ev.printed.ok and ev.library.ok
+    assert not np.allclose(lit, J2, atol=1e-3)
+
+
+def test_the_printed_G1_has_the_size_of_a_state_without_landmarks():
+    ev = _erratum("G1 size").check()
+    assert "shape (5, 3), expected (7, 5)" in ev.printed.message
+    assert ev.library.ok
+
+
+def test_the_report_got_the_columns_of_J2_right():
+    keys = {e.key for e in report.CORRECT_AS_PRINTED}
+    assert {"dg/d rho", "dg/d theta"} <= keys
+    for k in ("dg/d rho", "dg/d theta"):
+        ev = _erratum(k, report.CORRECT_AS_PRINTED).check()
+        assert ev.printed.ok and ev.library.ok
+        assert ev.printed.max_error < 1e-8
+
+
+def test_text_errata_name_the_notation_and_the_unbacked_claim():
+    printed = " ".join(t.printed for t in report.TEXT_ERRATA)
+    for words in ("N(x, P)", "bearing", "X^2_ij", "2 sigma"):
+        assert words in printed, words
