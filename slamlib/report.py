@@ -159,7 +159,11 @@ class ErratumEvidence:
 
 @dataclass(frozen=True)
 class Erratum:
-    """One error of the report."""
+    """One error of the report.
+
+    ``chapter`` is the chapter that shows it where it happens (``"03"``...), or
+    ``"A"`` for an error shown only in the errata appendix.
+    """
 
     key: str
     section: str
@@ -327,17 +331,17 @@ ERRATA: tuple[Erratum, ...] = (
     Erratum("unwrapped innovation", "V.C eq. (1)", "05", "omission",
             "y = z - h(x) for the bearing too",
             "the bearing component of y wrapped to [-pi, pi)", _check_wrap),
-    Erratum("g drops the map", "V.B", "04", "formula",
+    Erratum("g drops the map", "V.B", "A", "formula",
             "x^+ = g(x, z, v) = [x_B; x_B (+) (z_f + v)]",
             "x^+ = [x; x_B (+) z_f]: the whole state (robot AND landmarks already mapped), then "
             "the new landmark", _check_g),
-    Erratum("noise added to z_f", "V.B", "04", "formula",
+    Erratum("noise added to z_f", "V.B", "A", "formula",
             "x_B (+) (z_f + v): the reading's noise v (range, bearing) added to the cartesian "
             "point z_f",
             "the new landmark is x_B (+) p(z + v), p the polar-to-cartesian map: v enters through "
             "the polar reading, so dg/dv = J2 (as the report's own J2 has it), not a rotation",
             _check_g_noise),
-    Erratum("G1 size", "V.B", "04", "formula",
+    Erratum("G1 size", "V.B", "A", "formula",
             "G1 = dg/dx = [I; J1] (I 3x3: 5x3)",
             "with n landmarks in the state, G1 = [[I_(3+2n)], [J1, 0]] of size (5+2n) x (3+2n), "
             "and P^+ = G1 P G1^T + G2 R G2^T with G2 = [0; J2]", _check_G1),
