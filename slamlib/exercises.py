@@ -11,6 +11,7 @@ act on and returns True or False. It never raises on a student's mistake:
 
 Chapter 00: :func:`check_pose_from_zup`.
 Chapter 01: :func:`check_motion_jacobians`.
+Chapter 02: :func:`check_camera_to_range_bearing`.
 Chapter 03: :func:`check_observation_jacobians`.
 Chapter 04: :func:`check_inverse_observation_jacobians`.
 Chapter 05: :func:`check_gate` (wrapped innovation, Mahalanobis distance, chi-square gate).
@@ -64,6 +65,7 @@ def _not_ready(name: str, problem: str, what: str = "it") -> str:
     return f"{name}: {problem}. {todo}, then run this cell again."
 
 
+# --------------------------------------------------------------------------- chapter 01
 def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
                            wheel_base: float = KOBUKI_WHEEL_BASE, verbose: bool = True) -> bool:
     """Check a student's ``fn(x, u, dt, b) -> (A, W)`` against finite differences (chapter 01).
@@ -85,11 +87,16 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
         if problem:
             say(_not_ready(name, problem, "A and W"))
             return False
-        try:
-            A, W = out
-        except (TypeError, ValueError):
-            say(f"{name}: expected a pair (A, W), got {type(out).__name__}")
+        if not isinstance(out, (tuple, list)) or len(out) != 2:
+            if isinstance(out, (tuple, list)):
+                what = f"a {type(out).__name__} of {len(out)}"
+            elif isinstance(out, np.ndarray):
+                what = f"one numpy array of shape {out.shape}"
+            else:
+                what = f"a {type(out).__name__}"
+            say(f"{name}: expected a pair (A, W), got {what}. Return A, W.")
             return False
+        A, W = out
         A_ref = numerical_jacobian(lambda s, u=u, dt=dt: motion_model(s, u, dt, wheel_base), x,
                                    angle_outputs=(2,))
         W_ref = numerical_jacobian(lambda v, x=x, dt=dt: motion_model(x, v, dt, wheel_base), u,
@@ -100,6 +107,13 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
                            compare_jacobians("W", W, W_ref, atol=1e-6, rtol=1e-5)) if not c.ok]
         if bad:
             say(f"{name}: not right yet (test point {i + 1} of {n_points}, {where}).")
+            W_arr = np.asarray(W, dtype=float) if np.shape(W) == (3, 2) else None
+            if (W_arr is not None and np.all(np.isfinite(W_arr))
+                    and np.allclose(W_arr[:, ::-1], W_ref, atol=1e-6, rtol=1e-5)
+                    and not np.allclose(W_arr, W_ref, atol=1e-6, rtol=1e-5)):
+                say("  Your W columns are swapped: column 0 is d/dV_R and column 1 is d/dV_L "
+                    "(u = [V_R, V_L]). (Here that gives the same numbers as a turn rate of the "
+                    "wrong sign: w = (V_L - V_R)/b in the z-down frame.)")
             for c in bad:
                 say("  " + c.message)
             say("  Hint: A is the derivative with respect to the previous pose x_{k-1}; "
@@ -238,8 +252,24 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
 
 
 # ============================================================================ chapter 02 (vision)
-# Added by the vision chapter.
+# Added by the vision chapter (02 · Seeing ArUco markers).
 __all__ += ["check_camera_to_range_bearing"]
+
+
+def _random_mount(rng) -> np.ndarray:
+    """A camera mount ``^B T_C``: the forward-looking axes, turned a little, moved a little."""
+    from .vision import R_BASE_CAM
+
+    yaw, pitch, roll = rng.uniform(-0.5, 0.5), rng.uniform(-0.2, 0.2), rng.uniform(-0.2, 0.2)
+    cz, sz, cy, sy, cx, sx = (np.cos(yaw), np.sin(yaw), np.cos(pitch), np.sin(pitch),
+                              np.cos(roll), np.sin(roll))
+    Rz = np.array([[cz, -sz, 0.0], [sz, cz, 0.0], [0.0, 0.0, 1.0]])
+    Ry = np.array([[cy, 0.0, sy], [0.0, 1.0, 0.0], [-sy, 0.0, cy]])
+    Rx = np.array([[1.0, 0.0, 0.0], [0.0, cx, -sx], [0.0, sx, cx]])
+    T = np.eye(4)
+    T[:3, :3] = Rz @ Ry @ Rx @ R_BASE_CAM
+    T[:3, 3] = [rng.uniform(0.0, 0.3), rng.uniform(-0.15, 0.15), rng.uniform(-0.2, 0.2)]
+    return T
 
 
 def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
@@ -248,21 +278,33 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
 
     ``p_cam`` is a marker centre (3,) in the camera's optical frame and
     ``T_base_cam`` the 4x4 ``^B T_C``; the answer is the range projected on the
-    floor and the bearing, both from the robot's origin, as
-    :func:`slamlib.vision.camera_to_range_bearing` computes them. Common
-    mistakes (measuring from the camera, a 3-D range, optical axes taken as
-    the robot's, a flipped bearing) are named.
+    floor and the bearing (rad), both from the robot's origin, as
+    :func:`slamlib.vision.camera_to_range_bearing` computes them. The first
+    point uses the course's camera, the others other mounts (turned and moved),
+    so an answer that ignores ``T_base_cam`` fails. Common mistakes are named:
+    measuring from the camera, ``^C T_B`` used for ``^B T_C``, the rotation
+    transposed or forgotten, a 3-D range, the bearing in degrees, atan2's
+    arguments swapped, a flipped bearing, the optical axes taken as the robot's.
     """
     from .vision import camera_to_range_bearing, default_camera
 
     say = _printer(verbose)
 
     name = getattr(fn, "__name__", "your function")
-    T = default_camera().T_base_cam
     rng = np.random.default_rng(seed)
-    pts = [np.array([rng.uniform(-1.0, 1.0), rng.uniform(-0.1, 0.1), rng.uniform(0.5, 4.0)])
-           for _ in range(n_points)]
-    for p in pts:
+    cases = []
+    for k in range(n_points):
+        T = default_camera().T_base_cam if k == 0 else _random_mount(rng)
+        p = np.array([rng.uniform(-1.0, 1.0), rng.uniform(-0.1, 0.1), rng.uniform(0.5, 4.0)])
+        cases.append((p, T))
+
+    def rb(q):
+        return np.array([np.hypot(q[0], q[1]), np.arctan2(q[1], q[0])])
+
+    def same(a, b):
+        return abs(a[0] - b[0]) < 1e-6 and abs(wrap_angle(a[1] - b[1])) < 1e-6
+
+    for p, T in cases:
         out, problem = _call(fn, p.copy(), T.copy())
         if problem:
             say(_not_ready(name, problem, "it"))
@@ -276,28 +318,51 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
             say(f"{name}: expected [rho, bearing] of shape (2,), got shape {got.shape}")
             return False
         want = camera_to_range_bearing(p, T)
-        if np.allclose(got, want, atol=1e-9):
+        if np.all(np.isfinite(got)) and same(got, want):
             continue
-        where = f"for p_cam = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}]"
-        pb = T[:3, :3] @ p + T[:3, 3]
-        hints = []
-        if np.isclose(got[0], np.hypot(p[2], p[0])):
-            hints.append("the range is measured from the camera: add the mount offset "
-                         "(T_base_cam[:3, 3]) to get B's origin")
-        if np.isclose(got[0], np.linalg.norm(pb)):
-            hints.append("the range includes the height: project on the floor, hypot(x_B, y_B)")
-        if np.isclose(got[0], np.hypot(pb[0], pb[2])) or np.isclose(got[0], np.hypot(p[0], p[1])):
-            hints.append("the axes are mixed up: x_B = z_C, y_B = x_C, z_B = y_C")
-        if np.isclose(got[1], -want[1]):
-            hints.append("the bearing's sign is flipped: in the z-down frame a point to the "
-                         "right has a positive bearing, atan2(y_B, x_B)")
-        elif np.isclose(got[1], np.arctan2(p[0], p[2])):
-            hints.append("the bearing is measured from the camera: use the point in B")
+        R, t = T[:3, :3], T[:3, 3]
+        pb = R @ p + t
+        # whole answers that a known mistake produces
+        wrong_answers = [
+            (rb(R @ p), "the range and bearing are measured from the camera: add the mount "
+                        "offset t = T_base_cam[:3, 3] to get the point from B's origin"),
+            (rb(R.T @ (p - t)), "you used ^C T_B (the inverse) instead of ^B T_C: T_base_cam "
+                                "already carries camera points into B, ^B p = R ^C p + t"),
+            (rb(R.T @ p + t), "the rotation is transposed: ^B p = R ^C p + t with "
+                              "R = T_base_cam[:3, :3] (its columns are C's axes in B)"),
+            (rb(p + t), "the rotation is forgotten: the camera's axes are not the robot's "
+                        "(x_B = z_C, y_B = x_C, z_B = y_C for the course's camera), "
+                        "^B p = R ^C p + t"),
+            (rb(p), "the point is used as it is: carry it into B first, ^B p = R ^C p + t"),
+        ]
+        T0 = default_camera().T_base_cam
+        if not np.allclose(T, T0):
+            wrong_answers.append((rb(T0[:3, :3] @ p + T0[:3, 3]),
+                                  "the answer ignores T_base_cam (it is right for the course's "
+                                  "camera only): use the matrix you are given"))
+        hints = [h for z, h in wrong_answers if np.all(np.isfinite(got)) and same(got, z)]
+        if not hints:
+            if np.isclose(got[0], np.linalg.norm(pb)):
+                hints.append("the range includes the height: project on the floor, "
+                             "hypot(x_B, y_B)")
+            if np.isclose(got[0], np.hypot(pb[0], pb[2])) or np.isclose(got[0],
+                                                                      np.hypot(p[0], p[1])):
+                hints.append("the axes are mixed up: use the rotation T_base_cam[:3, :3]")
+            if np.isclose(got[1], np.degrees(want[1])):
+                hints.append("the bearing is in degrees: the filters work in radians")
+            elif np.isclose(got[1], np.arctan2(pb[0], pb[1])):
+                hints.append("atan2's arguments are swapped: the bearing is atan2(y_B, x_B)")
+            elif np.isclose(got[1], -want[1]):
+                hints.append("the bearing's sign is flipped: in the z-down frame a point to "
+                             "the right has a positive bearing, atan2(y_B, x_B)")
         hint = (" Hint: " + "; ".join(hints) + ".") if hints else ""
-        say(f"{name}: wrong {where}: got [{got[0]:.4f}, {got[1]:.4f}], expected "
-            f"[{want[0]:.4f}, {want[1]:.4f}].{hint}")
+        mount = ("the course's camera" if np.allclose(T, T0)
+                 else f"a camera mounted at t = [{t[0]:.3f}, {t[1]:.3f}, {t[2]:.3f}], turned")
+        say(f"{name}: wrong for p_cam = [{p[0]:.3f}, {p[1]:.3f}, {p[2]:.3f}] and {mount}: "
+            f"got [{got[0]:.4f}, {got[1]:.4f}], expected [{want[0]:.4f}, {want[1]:.4f}].{hint}")
         return False
-    say(f"{name}: correct at {len(pts)} points.")
+    say(f"{name}: correct at {len(cases)} points, with the course's camera and "
+        f"{len(cases) - 1} other mounts.")
     return True
 
 

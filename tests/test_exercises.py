@@ -534,6 +534,135 @@ def test_history_index_checker_stub_and_bad_output_without_raising(capsys):
     assert "KeyError" in capsys.readouterr().out
 
 
+# --------------------------------------------------------------------------- chapter 01
+def _motion_jacobians_by_hand(x, u, dt, b):
+    # written out from the derivation of chapter 01, not from the library
+    V = 0.5 * (u[0] + u[1])
+    c, s = np.cos(x[2]), np.sin(x[2])
+    A = np.array([[1.0, 0.0, -V * s * dt], [0.0, 1.0, V * c * dt], [0.0, 0.0, 1.0]])
+    W = np.array([[0.5 * c * dt, 0.5 * c * dt], [0.5 * s * dt, 0.5 * s * dt], [-dt / b, dt / b]])
+    return A, W
+
+
+def test_motion_checker_accepts_a_right_answer(capsys):
+    from slamlib.exercises import check_motion_jacobians
+
+    assert check_motion_jacobians(_motion_jacobians_by_hand) is True
+    assert "correct" in capsys.readouterr().out
+
+
+def test_motion_checker_names_swapped_W_columns(capsys):
+    from slamlib.exercises import check_motion_jacobians
+
+    def swapped(x, u, dt, b):
+        A, W = _motion_jacobians_by_hand(x, u, dt, b)
+        return A, W[:, ::-1]
+
+    assert check_motion_jacobians(swapped) is False
+    out = capsys.readouterr().out
+    assert "W columns are swapped" in out and "column 0 is d/dV_R" in out
+
+
+def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):
+    from slamlib.exercises import check_motion_jacobians
+
+    def wrong_A(x, u, dt, b):
+        A, W = _motion_jacobians_by_hand(x, u, dt, b)
+        return A.T, W
+
+    assert check_motion_jacobians(wrong_A) is False
+    out = capsys.readouterr().out
+    assert "swapped" not in out and "A[" in out
+
+
+@pytest.mark.parametrize("answer, words", [
+    (lambda x, u, dt, b: (np.eye(3), np.zeros((3, 2)), 0),
+     "expected a pair (A, W), got a tuple of 3"),
+    (lambda x, u, dt, b: np.eye(3), "expected a pair (A, W), got one numpy array of shape (3, 3)"),
+    (lambda x, u, dt, b: [np.eye(3)], "expected a pair (A, W), got a list of 1"),
+])
+def test_motion_checker_names_a_wrong_number_of_values(answer, words, capsys):
+    from slamlib.exercises import check_motion_jacobians
+
+    assert check_motion_jacobians(answer) is False
+    assert words in capsys.readouterr().out
+
+
+# --------------------------------------------------------------------------- chapter 02
+def _range_bearing(q):
+    return np.array([np.hypot(q[0], q[1]), np.arctan2(q[1], q[0])])
+
+
+def _camera_answer(p, T):
+    # written out independently of slamlib.vision.camera_to_range_bearing
+    return _range_bearing(T[:3, :3] @ np.asarray(p) + T[:3, 3])
+
+
+_COURSE_R = np.array([[0.0, 0.0, 1.0], [1.0, 0.0, 0.0], [0.0, 1.0, 0.0]])
+_COURSE_t = np.array([0.122, -0.033, 0.082])
+
+
+def test_camera_checker_accepts_a_right_answer_and_the_library(capsys):
+    from slamlib.exercises import check_camera_to_range_bearing
+    from slamlib.vision import camera_to_range_bearing
+
+    assert check_camera_to_range_bearing(_camera_answer) is True
+    assert check_camera_to_range_bearing(camera_to_range_bearing) is True
+    assert "other mounts" in capsys.readouterr().out
+
+
+def test_camera_checker_varies_the_mount():
+    from slamlib.exercises import check_camera_to_range_bearing
+
+    seen = []
+
+    def spy(p, T):
+        seen.append(np.array(T))
+        return _camera_answer(p, T)
+
+    assert check_camera_to_range_bearing(spy, verbose=False)
+    assert len(seen) == 8
+    np.testing.assert_allclose(seen[0][:3, :3], _COURSE_R)
+    assert len({np.round(T, 6).tobytes() for T in seen}) == 8
+    for T in seen:                                  # proper rigid transforms
+        np.testing.assert_allclose(T[:3, :3] @ T[:3, :3].T, np.eye(3), atol=1e-12)
+        assert np.linalg.det(T[:3, :3]) == pytest.approx(1.0)
+
+
+@pytest.mark.parametrize("answer, words", [
+    (lambda p, T: _range_bearing(_COURSE_R @ p + _COURSE_t), "ignores T_base_cam"),
+    (lambda p, T: _camera_answer(p, np.linalg.inv(T)), "^C T_B (the inverse)"),
+    (lambda p, T: _range_bearing(T[:3, :3].T @ p + T[:3, 3]), "rotation is transposed"),
+    (lambda p, T: _range_bearing(np.asarray(p) + T[:3, 3]), "rotation is forgotten"),
+    (lambda p, T: _range_bearing(T[:3, :3] @ p), "measured from the camera"),
+    (lambda p, T: _camera_answer(p, T) * [1.0, 180.0 / np.pi], "bearing is in degrees"),
+    (lambda p, T: (lambda q: np.array([np.hypot(q[0], q[1]), np.arctan2(q[0], q[1])]))(
+        T[:3, :3] @ p + T[:3, 3]), "atan2's arguments are swapped"),
+    (lambda p, T: _camera_answer(p, T) * [1.0, -1.0], "sign is flipped"),
+    (lambda p, T: (lambda q: np.array([np.linalg.norm(q), np.arctan2(q[1], q[0])]))(
+        T[:3, :3] @ p + T[:3, 3]), "includes the height"),
+])
+def test_camera_checker_names_the_mistake(answer, words, capsys):
+    from slamlib.exercises import check_camera_to_range_bearing
+
+    assert check_camera_to_range_bearing(answer) is False
+    out = capsys.readouterr().out
+    assert words in out, out
+
+
+@pytest.mark.parametrize("answer, words", [
+    (lambda p, T: None, "not written yet"),
+    (lambda p, T: [1.0, 2.0, 3.0], "shape (2,)"),
+    (lambda p, T: 1 / 0, "ZeroDivisionError"),
+    (lambda p, T: np.full(2, np.nan), "wrong"),
+])
+def test_camera_checker_stub_and_bad_output_without_raising(answer, words, capsys):
+    from slamlib.exercises import check_camera_to_range_bearing
+
+    assert check_camera_to_range_bearing(answer) is False
+    assert words in capsys.readouterr().out
+
+
 # --------------------------------------------------------------------------- chapter 07
 def _view_answer(dx, dy, th, half, rmax, *, wrap=True, sign=-1.0, swap=False, half_scale=1.0,
                  squared=False):
