@@ -898,8 +898,11 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
     -------
     (Figure, axes)
     """
+    from matplotlib.ticker import MaxNLocator
+
     h = exploration.history()
-    if axes is None:
+    own = axes is None
+    if own:
         fig, axes = plt.subplots(3, 1, figsize=(7.2, 6.0), dpi=DPI, sharex=True)
     fig = axes[0].figure
     axes[0].plot(h["t"], 100 * h["coverage"], color="tab:green")
@@ -907,6 +910,7 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
     axes[0].set_ylim(0, 100)
     axes[1].step(h["t"], h["landmarks"], where="post", color="tab:blue")
     axes[1].set_ylabel("landmarks mapped")
+    axes[1].yaxis.set_major_locator(MaxNLocator(integer=True))
     axes[2].plot(h["t"], h["error_xy"], color="tab:red", label="position error (truth)")
     axes[2].plot(h["t"], nsigma * h["sigma_xy"], "--", color="tab:blue",
                  label=f"{nsigma:g} sigma_xy (filter)")
@@ -928,5 +932,6 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
     axes[2].legend(fontsize=7, loc="upper left")
     if title:
         axes[0].set_title(title)
-    fig.tight_layout()
+    if own:
+        fig.tight_layout()
     return fig, axes
