@@ -187,8 +187,14 @@ def plot_frame(ax, pose, *, length: float = 0.3, name: str = "", color: str = "k
                 color=color, ha="center", va="center", fontsize=9)
 
 
-def plot_covariance_blocks(ax, P, n_landmarks: int, *, title: str = "|correlation|"):
-    """Show a SLAM covariance as an image of |correlation| with the state's blocks outlined."""
+def plot_covariance_blocks(ax, P, n_landmarks: int, *, title: str = "|correlation|",
+                           ids=None, colorbar: bool = False):
+    """Show a SLAM covariance as an image of |correlation| with the state's blocks outlined.
+
+    ``ids``: the landmarks' ids in state order (``EKFSLAM.landmark_ids``); the
+    ticks are then ``x31, y31, ...`` instead of ``x1, y1, ...`` (counting from 1).
+    ``colorbar``: add a colour bar labelled "|correlation|". Returns the image.
+    """
     P = np.asarray(P, dtype=float)
     d = np.sqrt(np.diag(P))
     C = np.abs(P / np.outer(d, d))
@@ -197,10 +203,15 @@ def plot_covariance_blocks(ax, P, n_landmarks: int, *, title: str = "|correlatio
     for e in edges:
         ax.axhline(e - 0.5, color="w", lw=0.6)
         ax.axvline(e - 0.5, color="w", lw=0.6)
-    labels = ["x", "y", "θ"] + [f"{c}{i + 1}" for i in range(n_landmarks) for c in ("x", "y")]
+    names = list(range(1, n_landmarks + 1)) if ids is None else [int(i) for i in ids]
+    if len(names) != n_landmarks:
+        raise ValueError(f"ids: expected {n_landmarks} landmark ids, got {len(names)}")
+    labels = ["x", "y", "θ"] + [f"{c}{i}" for i in names for c in ("x", "y")]
     ax.set_xticks(range(P.shape[0]), labels, fontsize=7, rotation=90)
     ax.set_yticks(range(P.shape[0]), labels, fontsize=7)
     ax.set_title(title)
+    if colorbar:
+        ax.figure.colorbar(im, ax=ax, shrink=0.8, label="|correlation|")
     return im
 
 
@@ -348,29 +359,55 @@ def plot_camera_view(ax, image, *, title: str | None = None):
     return ax
 
 
-def plot_error_study(study, model=None, *, axes=None):
+def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
     """Four panels of an :class:`slamlib.vision.ErrorStudy`: detection rate, range bias,
     range noise and bearing noise against distance, one line per viewing angle; the fitted
-    :class:`slamlib.vision.NoiseModel` dashed if given."""
+    :class:`slamlib.vision.NoiseModel` dashed (and named in each panel's legend) if given.
+
+    ``error_bars``: the standard error of each mean (bias) and of each standard
+    deviation (``s / sqrt(2 (n - 1))``), from the number of detected samples per cell.
+    """
     if axes is None:
         _, axes = plt.subplots(2, 2, figsize=(9.0, 6.4), dpi=DPI, sharex=True)
     ax_det, ax_bias, ax_std, ax_b = np.ravel(axes)
     d = study.distances
     rate, bias, std = study.detection_rate(), study.range_bias(), study.range_std()
     bstd = study.bearing_std()
+    n = np.zeros_like(rate)
+    for i in range(d.size):
+        for j in range(study.angles.size):
+            n[i, j] = np.count_nonzero(study.detected & (study.cell[:, 0] == i)
+                                       & (study.cell[:, 1] == j))
+    with np.errstate(divide="ignore", invalid="ignore"):
+        se_mean = np.where(n >= 2, 1.0 / np.sqrt(n), np.nan)
+        se_std = np.where(n >= 2, 1.0 / np.sqrt(2.0 * (n - 1.0)), np.nan)
+    # spread the lines a little along x so that error bars do not overlap
+    shift = 0.03 * (d.max() - d.min()) / max(study.angles.size, 1)
     for j, a in enumerate(study.angles):
         lab = f"{np.degrees(a):.0f} deg"
+        x = d + (j - 0.5 * (study.angles.size - 1)) * shift
         ax_det.plot(d, rate[:, j], "o-", ms=3, label=lab)
-        ax_bias.plot(d, 100 * bias[:, j], "o-", ms=3, label=lab)
-        ax_std.plot(d, 100 * std[:, j], "o-", ms=3, label=lab)
-        ax_b.plot(d, np.degrees(bstd[:, j]), "o-", ms=3, label=lab)
+        for ax, y, se in ((ax_bias, 100 * bias[:, j], 100 * std[:, j] * se_mean[:, j]),
+                          (ax_std, 100 * std[:, j], 100 * std[:, j] * se_std[:, j]),
+                          (ax_b, np.degrees(bstd[:, j]), np.degrees(bstd[:, j]) * se_std[:, j])):
+            if error_bars:
+                ax.errorbar(x, y, yerr=se, fmt="o-", ms=3, capsize=2, elinewidth=0.8, label=lab)
+            else:
+                ax.plot(d, y, "o-", ms=3, label=lab)
     if model is not None:
         r = np.linspace(0, d.max(), 100)
+        c3 = getattr(model, "bias_coef3", 0.0)
+        fit = f"fit {100 * model.bias_coef:.2f} $\\rho^2$"
+        if c3:
+            fit += f" + {100 * c3:.3f} $\\rho^3$"
         ax_bias.plot(r, 100 * model.range_bias(r), "k--", lw=1.2,
-                     label=f"{model.bias_coef * 100:.2f} cm/m$^2$ $\\rho^2$")
-        ax_std.plot(r, 100 * model.sigma_range(r), "k--", lw=1.2, label="fitted $\\sigma_\\rho$")
+                     label=fit + " (cm, $\\rho$ in m)")
+        ax_std.plot(r, 100 * model.sigma_range(r), "k--", lw=1.2,
+                    label="fitted $\\sigma_\\rho$ (after the bias correction)")
         ax_b.axhline(np.degrees(model.sigma_bearing), color="k", ls="--", lw=1.2,
                      label="fitted $\\sigma_\\beta$")
+        ax_std.legend(handles=ax_std.get_lines()[-1:], fontsize=7, loc="upper left")
+        ax_b.legend(handles=ax_b.get_lines()[-1:], fontsize=7, loc="upper left")
     ax_det.set_ylabel("detection rate")
     ax_det.set_ylim(-0.05, 1.05)
     ax_bias.set_ylabel("range bias (cm)")
@@ -381,7 +418,8 @@ def plot_error_study(study, model=None, *, axes=None):
     for ax in (ax_det, ax_bias, ax_std, ax_b):
         ax.grid(True, lw=0.4, alpha=0.5)
     ax_det.legend(fontsize=7, title="viewing angle", title_fontsize=7)
-    ax_bias.legend(fontsize=7)
+    if model is not None:
+        ax_bias.legend(handles=ax_bias.get_lines()[-1:], fontsize=7, loc="upper left")
     return axes
 
 
@@ -441,9 +479,13 @@ def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = 
     return float(np.mean(out)) if v.size else float("nan")
 
 
-def plot_detection_scene(world, pose, camera, *, rng=None):
+def plot_detection_scene(world, pose, camera, *, rng=None, zoom=None, title=None):
     """The report's Fig. 3: the camera's rendered view from ``pose`` with the detected
     markers, their ids and pose axes drawn, beside a top view with the field of view.
+
+    ``zoom = (u0, u1, v0, v1)``: also show that part of the image (pixels)
+    magnified in an inset over the upper part of the view. ``title``: a title
+    over the whole figure.
 
     Returns
     -------
@@ -456,10 +498,18 @@ def plot_detection_scene(world, pose, camera, *, rng=None):
     gray = render_view(world, pose, camera, rng=rng)
     det = detect_markers(gray, camera, world.marker_length, world.dictionary)
     fig = plt.figure(figsize=(11, 4.4), dpi=DPI)
-    ax_img = fig.add_axes([0.02, 0.08, 0.58, 0.84])
-    plot_camera_view(ax_img, draw_detections(gray, det, camera, world.marker_length),
-                     title="camera view, detections and marker axes")
-    ax_top = fig.add_axes([0.64, 0.1, 0.34, 0.82])
+    top = 0.85 if title else 0.92          # room for the figure's title
+    ax_img = fig.add_axes([0.02, 0.1, 0.58, top - 0.1])
+    drawn = draw_detections(gray, det, camera, world.marker_length)
+    plot_camera_view(ax_img, drawn, title="camera view, detections and marker axes")
+    if zoom is not None:
+        u0, u1, v0, v1 = (int(round(v)) for v in zoom)
+        inset = ax_img.inset_axes([0.02, 0.5, 0.96, 0.47])
+        inset.imshow(drawn[v0:v1, u0:u1, ::-1], extent=(u0 - 0.5, u1 - 0.5, v1 - 0.5, v0 - 0.5))
+        inset.set_xticks([])
+        inset.set_yticks([])
+        ax_img.indicate_inset_zoom(inset, edgecolor="tab:orange")
+    ax_top = fig.add_axes([0.64, 0.1, 0.34, top - 0.1])
     world_axes(ax_top, world)
     plot_world(ax_top, world, facing=True)
     plot_robot(ax_top, pose, size=0.25)
@@ -469,6 +519,8 @@ def plot_detection_scene(world, pose, camera, *, rng=None):
         ax_top.plot([cam_xy[0], cam_xy[0] + 4 * np.cos(a)],
                     [cam_xy[1], cam_xy[1] + 4 * np.sin(a)], "g--", lw=0.8)
     ax_top.set_title("top view (y down), field of view")
+    if title:
+        fig.suptitle(title)
     return fig, det
 
 
