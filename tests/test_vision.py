@@ -336,24 +336,88 @@ def test_noise_model_correction_inverts_the_bias():
     z = np.column_stack([rho + nm.range_bias(rho), np.full(4, 0.2)])
     np.testing.assert_allclose(nm.correct(z), np.column_stack([rho, np.full(4, 0.2)]))
     np.testing.assert_allclose(nm.R(2.0), np.diag([(0.004 + 0.01) ** 2, 9e-8]))
+    # with a cubic term (solved by Newton)
+    nm3 = V.NoiseModel(0.0035, 0.001, 0.0027, 2.4e-4, True, 2.4e-4)
+    np.testing.assert_allclose(nm3.range_bias(2.0), 0.0035 * 4 + 2.4e-4 * 8)
+    z = np.column_stack([rho + 0.0035 * rho ** 2 + 2.4e-4 * rho ** 3, np.full(4, -0.3)])
+    np.testing.assert_allclose(nm3.correct(z), np.column_stack([rho, np.full(4, -0.3)]),
+                               atol=1e-12)
+    np.testing.assert_allclose(nm3.correct(z[1]), [1.0, -0.3], atol=1e-12)
+
+
+def test_correction_along_the_line_of_sight_fixes_the_bearing():
+    # a detector that overestimates the depth along the camera's ray: the point is
+    # pushed away from the camera, which sits beside B's origin, so seen from B
+    # both the range and the bearing are off
+    nm = V.NoiseModel(0.0035, 0.001, 0.0027, 2.4e-4, True, 2.4e-4)
+    o = CAM.T_base_cam[:2, 3]
+    rng = np.random.default_rng(5)
+    rho = rng.uniform(1.0, 5.0, 200)
+    beta = rng.uniform(-0.5, 0.5, 200)
+    p = np.column_stack([rho * np.cos(beta), rho * np.sin(beta)])
+    v = p - o
+    q = p + v / np.linalg.norm(v, axis=1, keepdims=True) * nm.range_bias(rho)[:, None]
+    zm = np.column_stack([np.hypot(q[:, 0], q[:, 1]), np.arctan2(q[:, 1], q[:, 0])])
+    assert np.mean(zm[:, 1] - beta) > 2e-5                 # the bearing offset (positive)
+    plain = nm.correct(zm)
+    along = nm.correct(zm, origin=o)
+    assert np.max(np.abs(along[:, 1] - beta)) < 0.05 * np.max(np.abs(plain[:, 1] - beta))
+    assert np.max(np.abs(along[:, 0] - rho)) < 1e-3
+    assert np.max(np.abs(plain[:, 0] - rho)) < 1e-3
+    np.testing.assert_array_equal(plain[:, 1], zm[:, 1])  # no origin: bearing untouched
+
+
+def test_camera_sensor_has_no_bearing_offset_after_the_correction():
+    # the raw pipeline reads bearings a little to the right (the range bias seen from
+    # beside the camera); the sensor's correction removes it
+    rng = np.random.default_rng(4)
+    raw, fixed = [], []
+    for k in range(24):
+        d, b = 2.0 + 0.125 * k, rng.uniform(-0.3, 0.3)
+        world, pose = V.single_marker_scene(d, 0.0, b, int(rng.integers(1024)))
+        det = V.detect_markers(V.render_view(world, pose, CAM, rng=rng), CAM, 0.15)
+        if len(det) == 1:
+            zt = observe(pose, world.markers[0].position)
+            raw.append(det.z[0, 1] - zt[1])
+            fixed.append(V.DEFAULT_NOISE_MODEL.correct(det.z[0], CAM.T_base_cam[:2, 3])[1]
+                         - zt[1])
+    assert len(raw) >= 20
+    assert np.mean(raw) > 8e-5 and abs(np.mean(fixed)) < 0.4 * np.mean(raw)
+
+
+def _synthetic_study(bias, sigma, n=400, dists=(1.0, 2.0, 3.0, 4.0), seed=0):
+    rng = np.random.default_rng(seed)
+    dists = np.array(dists)
+    cell = np.array([(i, 0) for i in range(dists.size) for _ in range(n)])
+    rho = dists[cell[:, 0]]
+    zt = np.column_stack([rho, np.zeros_like(rho)])
+    zm = zt + np.column_stack([bias(rho) + sigma(rho) * rng.standard_normal(rho.size),
+                               1e-3 * rng.standard_normal(rho.size)])
+    nan = np.full(rho.size, np.nan)
+    return V.ErrorStudy(dists, np.zeros(1), n, cell, zt, zm, nan, nan, nan, nan, {})
 
 
 def test_fit_noise_model_recovers_a_synthetic_study():
-    rng = np.random.default_rng(0)
-    dists = np.array([1.0, 2.0, 3.0, 4.0])
-    cell = np.array([(i, 0) for i in range(4) for _ in range(400)])
-    rho = dists[cell[:, 0]]
-    zt = np.column_stack([rho, np.zeros_like(rho)])
-    zm = zt + np.column_stack([0.005 * rho ** 2 + (0.002 + 0.003 * rho ** 2)
-                               * rng.standard_normal(rho.size),
-                               1e-3 * rng.standard_normal(rho.size)])
-    nan = np.full(rho.size, np.nan)
-    st = V.ErrorStudy(dists, np.zeros(1), 400, cell, zt, zm, nan, nan, nan, nan, {})
-    nm = V.fit_noise_model(st)
-    assert nm.bias_coef == pytest.approx(0.005, rel=0.05)
+    st = _synthetic_study(lambda r: 0.005 * r ** 2, lambda r: 0.002 + 0.003 * r ** 2)
+    nm = V.fit_noise_model(st, cubic=False)
+    assert nm.bias_coef == pytest.approx(0.005, rel=0.05) and nm.bias_coef3 == 0.0
     assert nm.sigma_range_b == pytest.approx(0.003, rel=0.1)
     assert nm.sigma_bearing == pytest.approx(1e-3, rel=0.1)
     assert np.allclose(st.detection_rate(), 1.0)
+
+
+def test_fit_noise_model_recovers_a_cubic_bias_and_leaves_out_far_samples():
+    st = _synthetic_study(lambda r: 0.003 * r ** 2 + 0.0004 * r ** 3,
+                          lambda r: 0.001 + 0.002 * r ** 2, n=2000, dists=(1.0, 2.0, 3.0, 4.0, 6.0))
+    # the 6 m samples carry a wild extra error: max_range must leave them out
+    st.z_meas[st.z_true[:, 0] > 5, 0] += 1.0
+    nm = V.fit_noise_model(st, max_range=5.0)
+    assert nm.bias_coef == pytest.approx(0.003, rel=0.1)
+    assert nm.bias_coef3 == pytest.approx(0.0004, rel=0.15)
+    assert nm.sigma_range_b == pytest.approx(0.002, rel=0.1)
+    # a quadratic alone cannot follow it: it over-corrects at short range
+    nm2 = V.fit_noise_model(st, max_range=5.0, cubic=False)
+    assert nm2.range_bias(1.0) > 1.2 * nm.range_bias(1.0)
 
 
 def test_small_error_study_shows_long_ranges_and_fading_detection():
