@@ -962,7 +962,7 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
     axes[0].set_ylim(0, 100)
     axes[1].step(h["t"], h["landmarks"], where="post", color="tab:blue")
     axes[1].set_ylabel("landmarks mapped")
-    axes[1].yaxis.set_major_locator(MaxNLocator(integer=True))
+    axes[1].yaxis.set_major_locator(MaxNLocator(nbins=5, integer=True))
     axes[2].plot(h["t"], h["error_xy"], color="tab:red", label="position error (truth)")
     axes[2].plot(h["t"], nsigma * h["sigma_xy"], "--", color="tab:blue",
                  label=f"{nsigma:g} sigma_xy (filter)")
