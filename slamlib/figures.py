@@ -218,6 +218,35 @@ def course_camera_delay(ctx: _Context):
     return fig
 
 
+def _exploration(ctx: _Context):
+    from .explore import Explorer, exploration_world, explore
+
+    def make():
+        world = exploration_world(seed=5)
+        ex = explore(world, seed=5, duration=180.0, explorer=Explorer(sigma_return=0.1))
+        ctx.metrics.append(("random_15_seed5: exploration, return rule 0.1 m",
+                            ex.trace.metrics(world)))
+        return world, ex
+    return ctx.get("exploration", make)
+
+
+def course_exploration(ctx: _Context):
+    world, ex = _exploration(ctx)
+    fig, ax = plt.subplots(figsize=(9.0, 6.2), dpi=plotting.DPI)
+    plotting.world_axes(ax, world)
+    plotting.plot_exploration(ax, ex, world,
+                              title="Exploration steered by the SLAM estimate (chapter 07)")
+    fig.tight_layout()
+    return fig
+
+
+def course_exploration_history(ctx: _Context):
+    _, ex = _exploration(ctx)
+    fig, _ = plotting.plot_exploration_history(
+        ex, title="Exploration: coverage, map and position error, returns shaded")
+    return fig
+
+
 #: name -> function(ctx) -> Figure, in the order they are made.
 FIGURES: dict[str, Callable] = {
     "fig2_camera_to_robot": fig2_camera_to_robot,
@@ -233,6 +262,8 @@ FIGURES: dict[str, Callable] = {
     "course_vision_error_study": course_vision_error_study,
     "course_nees_monte_carlo": course_nees_monte_carlo,
     "course_camera_delay": course_camera_delay,
+    "course_exploration": course_exploration,
+    "course_exploration_history": course_exploration_history,
 }
 
 
