@@ -16,6 +16,7 @@ One module per idea:
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
 - ``experiments``  a filter driven over a run, with its trace
+- ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
 - ``exercises``    the exercise checkers
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files

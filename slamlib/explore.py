@@ -29,14 +29,15 @@ The exploration policy (:class:`Explorer`) is deliberately simple:
 - **return to a known landmark**: when the position uncertainty
   ``sigma_xy = sqrt(P_xx + P_yy)`` exceeds ``sigma_return``, the robot drives
   back to a landmark that is known much better than the robot knows itself
-  (the *anchor*: the nearest landmark whose own sigma is below
-  ``anchor_ratio * sigma_xy``, else the best-known one, usually the first
-  mapped). It goes to a point ``return_distance`` in front of it, on the side
-  it has been seen from (the mean direction from the landmark to the robot
-  over its sightings: a marker is visible from its printed side only), and
-  approaches it. Re-observing it closes a loop and pulls the pose back (the
-  report's observation in section VIII). The return ends when ``sigma_xy``
-  falls below ``hysteresis * sigma_return`` or the approach is finished;
+  and has been seen in at least ``min_sightings`` frames (the *anchor*: the
+  nearest such landmark whose own sigma is below ``anchor_ratio * sigma_xy``,
+  else the best-known one, usually the first mapped). It goes to a point
+  ``return_distance`` in front of it, on the side it has been seen from (the
+  mean direction from the landmark to the robot over its sightings: a marker
+  is visible from its printed side only), and approaches it. Re-observing
+  it closes a loop and pulls the pose back (the report's observation in
+  section VIII). The return ends when ``sigma_xy`` falls below
+  ``hysteresis * sigma_return`` or the approach is finished;
 - it stops when the coverage reaches ``coverage_target``, when no frontier is
   left, or when the time is up.
 
@@ -189,7 +190,10 @@ class Explorer:
         Seconds after a return before the next one may start.
     anchor_ratio : float
         A landmark can be the anchor of a return if its position sigma is below
-        ``anchor_ratio * sigma_xy``.
+        ``anchor_ratio * sigma_xy``...
+    min_sightings : int
+        ...and it was seen in at least this many frames (a landmark glimpsed
+        once, at the edge of its viewing angle, is hard to find again).
     return_distance : float
         The return goes to this distance (m) in front of the anchor...
     approach : float
@@ -209,6 +213,7 @@ class Explorer:
     hysteresis: float = 0.5
     cooldown: float = 20.0
     anchor_ratio: float = 0.5
+    min_sightings: int = 10
     return_distance: float = 1.5
     approach: float = 0.3
     coverage_target: float = 0.95
@@ -222,6 +227,7 @@ class Explorer:
                 "turn_cost": self.turn_cost,
                 "sigma_return": self.sigma_return, "hysteresis": self.hysteresis,
                 "cooldown": self.cooldown, "anchor_ratio": self.anchor_ratio,
+                "min_sightings": self.min_sightings,
                 "return_distance": self.return_distance, "approach": self.approach,
                 "coverage_target": self.coverage_target, "v_max": self.v_max,
                 "w_max": self.w_max}
@@ -239,8 +245,8 @@ class Explorer:
         self.mode = "explore"                   # "explore", "return" or "done"
         self.target: int | None = None          # index of the frontier cell driven to
         self.abandoned: set[int] = set()
-        #: landmark id -> sum of the unit vectors from the landmark to the robot, over its sightings
-        self.sightings: dict[int, np.ndarray] = {}
+        #: landmark id -> unit vectors from the landmark to the robot, one per sighting
+        self.sightings: dict[int, list[np.ndarray]] = {}
         self.anchor: int | None = None
         self._t_return = 0.0
         self._t_last_return = -math.inf
@@ -285,7 +291,8 @@ class Explorer:
 
     def choose_anchor(self, filt: EKFSLAM) -> int | None:
         """The landmark to return to: the nearest one known much better than the robot."""
-        ids = [i for i in filt.landmark_ids if i in self.sightings]
+        ids = [i for i in filt.landmark_ids
+               if len(self.sightings.get(i, ())) >= self.min_sightings]
         if not ids:
             return None
         sig = np.array([position_sigma(filt.landmark_cov(i)) for i in ids])
@@ -300,7 +307,7 @@ class Explorer:
         if self.anchor is None:
             return False
         lm = filt.landmark(self.anchor)
-        side = self.sightings[self.anchor]
+        side = np.mean(self.sightings[self.anchor], axis=0)
         side = side / max(np.hypot(*side), 1e-9)          # from the landmark towards the robot
         view = self._clamp(lm + self.return_distance * side)
         d = lm - view
@@ -353,7 +360,7 @@ class Explorer:
             for i in np.asarray(report.ids)[report.new | report.accepted]:
                 d = pose[:2] - filt.landmark(i)
                 u = d / max(np.hypot(*d), 1e-9)
-                self.sightings[int(i)] = self.sightings.get(int(i), np.zeros(2)) + u
+                self.sightings.setdefault(int(i), []).append(u)
         self.grid.mark(filt.pose, self.fov_half_angle, self.view_range)
         h = self.history
         h["t"].append(t)
@@ -482,7 +489,7 @@ def run_closed_loop(world, policy, *, seed: int = 0, params: KobukiParams | None
         kinds.append("predict")
         xs.append(filt.pose)
         Ps.append(filt.pose_cov)
-    run = sim.record(name=name or f"explore_{world.name}_seed{seed}",
+    run = sim.record(name=name or f"explore_{world.name}_sim{seed}",
                      description="closed loop: the policy steers by the EKF SLAM estimate",
                      controller=pol.params(), finished=pol.finished)
     t_arr = np.array(t_log)
