@@ -427,3 +427,11 @@ def test_small_error_study_shows_long_ranges_and_fading_detection():
     bias = st.range_bias()[:, 0]
     assert 0.0 < bias[0] < 0.01 and 0.01 < bias[1] < 0.1         # long, and ~ rho^2
     assert np.all(st.mean_corner_shift()[:2, 0] < 0)              # the square looks smaller
+
+
+def test_projected_corners_behind_the_camera_are_nan_not_an_error():
+    # marker 61 is behind the robot at the start pose; 41 is in front
+    behind = V.project_marker_corners(ARENA, 61, ARENA.start_pose, CAM)
+    assert behind.shape == (4, 2) and np.all(np.isnan(behind))
+    front = V.project_marker_corners(ARENA, 41, ARENA.start_pose, CAM)
+    assert np.all(np.isfinite(front))
