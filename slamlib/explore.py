@@ -425,7 +425,7 @@ class Exploration:
 
 def run_closed_loop(world, policy, *, seed: int = 0, params: KobukiParams | None = None,
                     sensor=None, start_pose=None, duration: float = 150.0,
-                    gate: float | None = 0.95, initial_estimate=None,
+                    gate: float | None = 0.95, initial_estimate=None, Q=None,
                     name: str | None = None) -> Exploration:
     """Simulate ``policy`` steering by an EKF SLAM estimate in ``world`` (chapter 07).
 
@@ -452,12 +452,16 @@ def run_closed_loop(world, policy, *, seed: int = 0, params: KobukiParams | None
     initial_estimate : array_like (3,), optional
         Where the filter believes the robot starts (default: the true start).
         A wrong one shows that the robot goes where the *estimate* says.
+    Q : array_like (2, 2), optional
+        The filter's wheel-speed covariance; default: what the simulated slip
+        and the tick quantisation imply (a smaller one makes it overconfident).
     """
     params = params or KobukiParams()
     sensor = AnalyticMarkerSensor() if sensor is None else sensor
     as_positive("duration", duration)
     sim = KobukiSim(world, sensor=sensor, seed=seed, params=params, start_pose=start_pose)
-    Q = sim.record().Q(params.dt)          # slip plus tick quantisation, as for a recorded run
+    if Q is None:
+        Q = sim.record().Q(params.dt)      # slip plus tick quantisation, as for a recorded run
     x0 = sim.pose if initial_estimate is None else as_vector("initial_estimate",
                                                                initial_estimate, 3)
     filt = EKFSLAM(x0, DEFAULT_P0, Q, sensor.R(2.0), wheel_base=params.wheel_base, gate=gate)
@@ -503,7 +507,7 @@ def explore(world, *, explorer: Explorer | None = None, seed: int = 0,
     """Explore ``world`` with an :class:`Explorer` (default parameters unless given).
 
     ``kwargs`` go to :func:`run_closed_loop` (``params``, ``sensor``,
-    ``start_pose``, ``gate``, ``initial_estimate``, ``name``).
+    ``start_pose``, ``gate``, ``initial_estimate``, ``Q``, ``name``).
     """
     return run_closed_loop(world, explorer or Explorer(), seed=seed, duration=duration,
                            **kwargs)

@@ -254,6 +254,15 @@ def test_stops_at_the_coverage_target():
     assert ex.trace.t[-1] < 100.0
 
 
+def test_the_filter_gets_the_q_it_is_given():
+    params = KobukiParams(sigma_wheel=0.04)
+    default = explore(WORLD, seed=1, duration=2.0, params=params)
+    assert default.filter.Q[0, 0] > 0.04 ** 2 and default.filter.Q[0, 1] == 0.0
+    assert np.array_equal(default.filter.Q, default.run.Q(params.dt))
+    small = explore(WORLD, seed=1, duration=2.0, params=params, Q=0.02 ** 2 * np.eye(2))
+    assert np.array_equal(small.filter.Q, 0.02 ** 2 * np.eye(2))
+
+
 def test_bad_input():
     with pytest.raises(ValueError, match="margin"):
         explore(WORLD, explorer=Explorer(margin=5.0), duration=1.0)
