@@ -541,7 +541,8 @@ def run_method(run: Run, method: str, kind: str = "slam", *, max_delay: float = 
 
 def latency_study(latencies=(0.0, 0.1, 0.2, 0.3, 0.5), *, kind: str = "slam",
                   methods=("naive", "fixed"), seed: int | None = None,
-                  scenario: str = "arena_loop", max_delay: float = 1.0) -> list[dict]:
+                  scenario: str = "arena_loop", max_delay: float = 1.0,
+                  cache: dict | None = None) -> list[dict]:
     """Each method's errors against the camera latency (chapter 08).
 
     For every latency the scenario is re-simulated (same motion and readings,
@@ -550,19 +551,36 @@ def latency_study(latencies=(0.0, 0.1, 0.2, 0.3, 0.5), *, kind: str = "slam",
     metrics (``ate_xy``, ``ate_theta``, ``mean_nees``, ``final_xy_error``,
     and for SLAM ``map_rmse``, ``landmarks``) plus ``rejected``, the readings
     the gate refused.
+
+    ``cache``, a dict, keeps the traces under ``(latency, method, kind)``
+    (latency rounded to 1 us): traces already in it are used, not recomputed,
+    and the new ones are added (a chapter that has run a case already, or
+    wants to draw one afterwards, passes the same dict). Only for the default
+    ``seed``, ``scenario`` and ``max_delay``: the key does not hold them.
     """
+    from .sim import SCENARIOS
+    from .worlds import load_world
+
     for m in methods:
         if m not in METHODS:
             raise ValueError(f"methods: expected names from {list(METHODS)}, got {m!r}")
+    if scenario not in SCENARIOS:
+        raise ValueError(f"scenario: expected one of {sorted(SCENARIOS)}, got {scenario!r}")
+    world = load_world(SCENARIOS[scenario][0])
     rows = []
     for lat in latencies:
         lat = float(lat)
         if not math.isfinite(lat) or lat < 0.0:
             raise ValueError(f"latencies: expected times >= 0 s, got {lat}")
-        run = delayed_run(lat, scenario=scenario, seed=seed)
-        world = run.world()
+        run = None
         for m in methods:
-            tr = run_method(run, m, kind, max_delay=max_delay)
+            key = (round(lat, 6), m, kind)
+            tr = None if cache is None else cache.get(key)
+            if tr is None:
+                run = run or delayed_run(lat, scenario=scenario, seed=seed)
+                tr = run_method(run, m, kind, max_delay=max_delay)
+                if cache is not None:
+                    cache[key] = tr
             rows.append({"latency": lat, "method": m, "kind": kind, **tr.metrics(world),
                          "rejected": tr.counts().get("rejected", 0)})
     return rows

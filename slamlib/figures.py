@@ -212,7 +212,8 @@ def course_camera_delay(ctx: _Context):
                             title=f"{latency:g} s late frames, {method}: ATE {m['ate_xy']:.2f} m, "
                                   f"map {m['map_rmse']:.2f} m")
     rows = delay.latency_study((0.0, 0.1, 0.2, 0.3, 0.5), kind="slam")
-    plotting.plot_latency_study(rows, ("ate_xy", "map_rmse"), axes=axes[1])
+    plotting.plot_latency_study(rows, ("ate_xy", "map_rmse"), axes=axes[1], legend_panel=1,
+                                legend_loc="upper left")
     fig.suptitle("EKF SLAM with a late camera (arena loop)")
     fig.tight_layout()
     return fig

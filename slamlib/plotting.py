@@ -607,7 +607,8 @@ _LATENCY_METRIC_LABELS = {
 
 
 def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
-                       title: str | None = None):
+                       title: str | None = None, legend_panel: int = 0,
+                       legend_loc: str = "best"):
     """Errors against camera latency, one line per method (chapter 08).
 
     Parameters
@@ -618,6 +619,8 @@ def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
     metrics : sequence of str
         One panel per metric.
     axes : sequence of Axes, optional
+    legend_panel, legend_loc : int, str
+        Which panel gets the legend, and where (None: no legend).
 
     Returns
     -------
@@ -641,7 +644,8 @@ def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
         ax.set_ylabel(_LATENCY_METRIC_LABELS.get(key, key))
         ax.set_ylim(bottom=0)
         ax.grid(True, lw=0.4, alpha=0.5)
-    axes[0].legend(fontsize=7, loc="upper left")
+    if legend_panel is not None:
+        axes[legend_panel].legend(fontsize=7, loc=legend_loc)
     if title:
         fig.suptitle(title)
     fig.tight_layout()

@@ -251,3 +251,24 @@ def test_run_compensated_is_close_to_the_fix(late_run):
     m_c, m_r, m_n = comp.metrics(world), ref.metrics(world), naive.metrics(world)
     assert m_c["map_rmse"] < 2 * m_r["map_rmse"] < m_n["map_rmse"]
     assert m_c["ate_xy"] < 2 * m_r["ate_xy"]
+
+
+def test_latency_study_cache_is_used_and_filled(monkeypatch):
+    import slamlib.delay as d
+
+    plain = latency_study((0.1,), kind="localization", methods=("naive", "compensated"))
+    cache = {}
+    first = latency_study((0.1,), kind="localization", methods=("naive", "compensated"),
+                          cache=cache)
+    assert first == plain
+    assert set(cache) == {(0.1, "naive", "localization"), (0.1, "compensated", "localization")}
+
+    def boom(*args, **kwargs):
+        raise AssertionError("recomputed a cached trace")
+
+    monkeypatch.setattr(d, "run_method", boom)
+    again = latency_study((0.1,), kind="localization", methods=("naive", "compensated"),
+                          cache=cache)
+    assert again == plain
+    # the naive filter at 0.1 s is already worse than the compensated one
+    assert plain[0]["ate_xy"] > 2 * plain[1]["ate_xy"]
