@@ -16,6 +16,9 @@ One module per idea:
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
 - ``experiments``  a filter driven over a run, with its trace
+- ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)
+- ``studies``      Monte-Carlo NEES, marker-density and re-observation studies (chapter 06)
+- ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
 - ``exercises``    the exercise checkers

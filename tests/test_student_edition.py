@@ -53,7 +53,7 @@ def test_student_notebook_runs_and_checkers_say_not_written(student_dir, path):
     for c in solution_cells(nb):
         assert "Solution removed" in c.source and not c.outputs
     assert len(nb.cells) == len(original.cells)
-    NotebookClient(nb, timeout=600, kernel_name="python3",
+    NotebookClient(nb, timeout=300, kernel_name="python3",
                    resources={"metadata": {"path": str(student_dir)}}).execute()
     text = "\n".join(o.get("text", "") for c in nb.cells if c.cell_type == "code"
                      for o in c.outputs if o.output_type == "stream")
