@@ -23,6 +23,20 @@ WIDGET_MIME = "application/vnd.jupyter.widget-view+json"
 KERNELSPEC = {"display_name": "Python 3 (ipykernel)", "language": "python", "name": "python3"}
 
 
+def merge_streams(outputs: list) -> list:
+    """Join consecutive stream outputs of the same stream: the kernel may split one print
+    into several messages depending on timing, which must not change the file."""
+    merged: list = []
+    for out in outputs:
+        prev = merged[-1] if merged else None
+        if (out.get("output_type") == "stream" and prev is not None
+                and prev.get("output_type") == "stream" and prev.get("name") == out.get("name")):
+            prev["text"] = prev["text"] + out["text"]
+        else:
+            merged.append(out)
+    return merged
+
+
 def normalise(nb: nbformat.NotebookNode) -> None:
     """Drop what changes from run to run or cannot be shown without a live kernel."""
     nb.metadata.pop("widgets", None)
@@ -32,6 +46,7 @@ def normalise(nb: nbformat.NotebookNode) -> None:
         cell.metadata.pop("execution", None)
         if cell.cell_type != "code":
             continue
+        cell.outputs = merge_streams(cell.get("outputs", []))
         for out in cell.get("outputs", []):
             data = out.get("data")
             if data and WIDGET_MIME in data:
