@@ -58,7 +58,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .ekf import UpdateReport
-from .experiments import Trace
+from .experiments import Trace, TraceRecorder, reading_covariances
 from .models import inverse_observe, motion_model, observe
 from .runs import Run
 from .validate import as_finite_scalar, as_positive
@@ -400,27 +400,22 @@ def run_delayed(run: Run, filt, *, max_delay: float = 1.0, by: str = "arrival",
     sensor = run.sensor() if use_sensor_R else None
     t0 = float(run.enc_t[0])
     w = DelayedEKF(filt, max_delay=max_delay, t0=t0, record=True)
-    t, kinds, xs, Ps = [t0], ["start"], [w.pose.copy()], [w.pose_cov.copy()]
-    reports, updates = [], []
+    rec = TraceRecorder(t0, w)
+    updates = []
     for ev in run.events(by=by):
+        report = None
         if ev.kind == "predict":
             w.predict(ev.u, ev.dt, ev.t)
         else:
             obs = ev.obs
             if len(obs) == 0:
                 continue
-            R = None if sensor is None else np.stack([sensor.R(r) for r in obs.z[:, 0]])
-            res = w.update(obs.ids, obs.z, R=R, t_capture=obs.t)
+            res = w.update(obs.ids, obs.z, R=reading_covariances(sensor, obs.z),
+                           t_capture=obs.t)
             updates.append(res)
-            if res.report is not None:
-                reports.append((ev.t, res.report))
-        t.append(ev.t)
-        kinds.append(ev.kind)
-        xs.append(w.pose.copy())
-        Ps.append(w.pose_cov.copy())
-    t_arr = np.array(t)
-    realtime = Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
-                     truth=run.truth_at(t_arr), reports=reports, filter=w.filter)
+            report = res.report
+        rec.record(ev.t, ev.kind, w, report)
+    realtime = rec.trace(run, w.filter)
     w.finish()
     st = w.settled()
     ts = np.array([s[0] for s in st])
@@ -463,9 +458,9 @@ def run_compensated(run: Run, filt, *, max_delay: float = 1.0, use_sensor_R: boo
     t0 = float(run.enc_t[0])
     odo = run.start_pose.copy()
     times, poses = [t0], [odo.copy()]
-    t, kinds, xs, Ps = [t0], ["start"], [filt.pose.copy()], [filt.pose_cov.copy()]
-    reports = []
+    rec = TraceRecorder(t0, filt)
     for ev in run.events(by="arrival"):
+        report = None
         if ev.kind == "predict":
             filt.predict(ev.u, ev.dt)
             odo = motion_model(odo, ev.u, ev.dt, run.wheel_base)
@@ -480,15 +475,9 @@ def run_compensated(run: Run, filt, *, max_delay: float = 1.0, use_sensor_R: boo
                 continue
             i = max(history_index(times, obs.t) - 1, 0)
             z = compensate_readings(obs.z, poses[i], poses[-1])
-            R = None if sensor is None else np.stack([sensor.R(r) for r in z[:, 0]])
-            reports.append((ev.t, filt.update(obs.ids, z, R=R)))
-        t.append(ev.t)
-        kinds.append(ev.kind)
-        xs.append(filt.pose.copy())
-        Ps.append(filt.pose_cov.copy())
-    t_arr = np.array(t)
-    return Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
-                 truth=run.truth_at(t_arr), reports=reports, filter=filt)
+            report = filt.update(obs.ids, z, R=reading_covariances(sensor, z))
+        rec.record(ev.t, ev.kind, filt, report)
+    return rec.trace(run, filt)
 
 
 # --------------------------------------------------------------------------- studies

@@ -27,8 +27,8 @@ from .ekf import EKFSLAM, EKFLocalization, UpdateReport
 from .metrics import ate, nees, pose_error
 from .runs import Run
 
-__all__ = ["Trace", "PendingFrame", "run_filter", "dead_reckoning", "localization", "slam",
-           "map_error", "DEFAULT_P0", "DEFAULT_R"]
+__all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
+           "dead_reckoning", "localization", "slam", "map_error", "DEFAULT_P0", "DEFAULT_R"]
 
 #: Initial pose covariance: the robot starts where the map's frame is defined.
 DEFAULT_P0 = np.diag([1e-6, 1e-6, 1e-6])
@@ -135,6 +135,38 @@ class Trace:
         return out
 
 
+def reading_covariances(sensor, z) -> np.ndarray | None:
+    """Each reading's covariance ``sensor.R(range)``, stacked (k, 2, 2); None without a sensor."""
+    if sensor is None:
+        return None
+    return np.stack([sensor.R(r) for r in np.asarray(z, dtype=float)[:, 0]])
+
+
+class TraceRecorder:
+    """Collects a filter's pose estimate and covariance after each event, then makes the
+    :class:`Trace` (one place for what every driver of a filter records)."""
+
+    def __init__(self, t0: float, filt):
+        self.t, self.kind = [float(t0)], ["start"]
+        self.x, self.P = [filt.pose.copy()], [filt.pose_cov.copy()]
+        self.reports: list[tuple[float, UpdateReport]] = []
+
+    def record(self, t: float, kind: str, filt, report: UpdateReport | None = None) -> None:
+        """Log the filter's pose after an event at time ``t`` (and the update's report)."""
+        self.t.append(float(t))
+        self.kind.append(kind)
+        self.x.append(filt.pose.copy())
+        self.P.append(filt.pose_cov.copy())
+        if report is not None:
+            self.reports.append((float(t), report))
+
+    def trace(self, run: Run, filt, **extra) -> Trace:
+        """The :class:`Trace`, with the run's truth at the logged times."""
+        t = np.array(self.t)
+        return Trace(t=t, kind=np.array(self.kind), x=np.array(self.x), P=np.array(self.P),
+                     truth=run.truth_at(t), reports=self.reports, filter=filt, **extra)
+
+
 def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,
                max_time: float | None = None, until: float | None = None) -> Trace:
     """Drive ``filt`` through ``run``'s events and record a :class:`Trace`.
@@ -160,29 +192,24 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     """
     sensor = run.sensor() if use_sensor_R else None
     pending = None
-    t, kinds, xs, Ps = [float(run.enc_t[0])], ["start"], [filt.pose.copy()], [filt.pose_cov.copy()]
-    reports: list[tuple[float, UpdateReport]] = []
+    rec = TraceRecorder(run.enc_t[0], filt)
     for ev in run.events(by=by):
         if max_time is not None and ev.t > max_time:
             break
+        report = None
         if ev.kind == "predict":
             filt.predict(ev.u, ev.dt)
         else:
             obs = ev.obs
             if len(obs) == 0:
                 continue
-            R = None if sensor is None else np.stack([sensor.R(r) for r in obs.z[:, 0]])
+            R = reading_covariances(sensor, obs.z)
             if until is not None and ev.t >= until - 1e-9:
                 pending = PendingFrame(float(ev.t), obs, R)
                 break
-            reports.append((ev.t, filt.update(obs.ids, obs.z, R=R)))
-        t.append(ev.t)
-        kinds.append(ev.kind)
-        xs.append(filt.pose.copy())
-        Ps.append(filt.pose_cov.copy())
-    t_arr = np.array(t)
-    return Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
-                 truth=run.truth_at(t_arr), reports=reports, filter=filt, pending=pending)
+            report = filt.update(obs.ids, obs.z, R=R)
+        rec.record(ev.t, ev.kind, filt, report)
+    return rec.trace(run, filt, pending=pending)
 
 
 def _R(run: Run) -> np.ndarray:
@@ -195,20 +222,14 @@ def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = 
     Q = run.Q() if Q is None else Q
     filt = EKFLocalization(run.start_pose, P0, Q, _R(run), landmarks={},
                            wheel_base=run.wheel_base)
-    t = [float(run.enc_t[0])]
-    xs, Ps = [filt.pose.copy()], [filt.pose_cov.copy()]
+    rec = TraceRecorder(run.enc_t[0], filt)
     u, dt = run.controls()
     for k in range(dt.shape[0]):
         if max_time is not None and run.enc_t[k + 1] > max_time:
             break
         filt.predict(u[k], dt[k])
-        t.append(float(run.enc_t[k + 1]))
-        xs.append(filt.pose.copy())
-        Ps.append(filt.pose_cov.copy())
-    t_arr = np.array(t)
-    kinds = np.array(["start"] + ["predict"] * (len(t) - 1))
-    return Trace(t=t_arr, kind=kinds, x=np.array(xs), P=np.array(Ps),
-                 truth=run.truth_at(t_arr), filter=filt)
+        rec.record(run.enc_t[k + 1], "predict", filt)
+    return rec.trace(run, filt)
 
 
 def localization(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,

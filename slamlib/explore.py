@@ -54,7 +54,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .ekf import EKFSLAM
-from .experiments import DEFAULT_P0, Trace
+from .experiments import DEFAULT_P0, Trace, TraceRecorder, reading_covariances
 from .models import tick_difference, wheel_speeds_from_ticks, wrap_angle
 from .runs import Run
 from .sensors import DEFAULT_FOV_HALF_ANGLE, AnalyticMarkerSensor
@@ -468,20 +468,15 @@ def run_closed_loop(world, policy, *, seed: int = 0, params: KobukiParams | None
     pol = copy.deepcopy(policy)
     pol.reset(world)
     b, dt = params.wheel_base, params.dt
-    t_log, kinds, xs, Ps, reports = [0.0], ["start"], [filt.pose], [filt.pose_cov], []
+    rec = TraceRecorder(0.0, filt)
     n_max = int(math.ceil(duration * params.encoder_rate))
     while sim.k < n_max and not pol.finished:
         frames = sim.step(*pol.command(sim.t, filt, dt, b))
         for obs in frames:                               # captured in [t_k, t_k+1)
             rep = None
             if len(obs):
-                R = np.stack([sensor.R(r) for r in obs.z[:, 0]])
-                rep = filt.update(obs.ids, obs.z, R=R)
-                reports.append((obs.t, rep))
-                t_log.append(obs.t)
-                kinds.append("update")
-                xs.append(filt.pose)
-                Ps.append(filt.pose_cov)
+                rep = filt.update(obs.ids, obs.z, R=reading_covariances(sensor, obs.z))
+                rec.record(obs.t, "update", filt, rep)
             pol.after_frame(obs.t, filt, rep)
         # the wheel speeds from the ticks, as Run.controls computes them
         dR = tick_difference(sim.ticks_R[-1], sim.ticks_R[-2], bits=params.bits)
@@ -489,16 +484,11 @@ def run_closed_loop(world, policy, *, seed: int = 0, params: KobukiParams | None
         step = sim.times[-1] - sim.times[-2]
         filt.predict(wheel_speeds_from_ticks(dR, dL, step, params.ticks_per_rev,
                                              params.wheel_radius), step)
-        t_log.append(sim.t)
-        kinds.append("predict")
-        xs.append(filt.pose)
-        Ps.append(filt.pose_cov)
+        rec.record(sim.t, "predict", filt)
     run = sim.record(name=name or f"explore_{world.name}_sim{seed}",
                      description="closed loop: the policy steers by the EKF SLAM estimate",
                      controller=pol.params(), finished=pol.finished)
-    t_arr = np.array(t_log)
-    trace = Trace(t=t_arr, kind=np.array(kinds), x=np.array(xs), P=np.array(Ps),
-                  truth=run.truth_at(t_arr), reports=reports, filter=filt)
+    trace = rec.trace(run, filt)
     return Exploration(run=run, trace=trace, policy=pol)
 
 
