@@ -5,7 +5,8 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
-.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean
+.PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book student \
+        runs lab bench clean
 
 venv: $(STAMP)
 
@@ -20,8 +21,9 @@ $(STAMP): environment.txt pyproject.toml
 figures: $(STAMP)
 	$(PY) -m slamlib.figures figures
 
-## Lint, unit/property/consistency tests, then every notebook under nbval
-test: lint unit nbval
+## Lint, unit/property/consistency tests (the web edition in Chromium too), every notebook under
+## nbval, and the proof that the committed notebooks are what `make notebooks` writes
+test: lint unit nbval check-notebooks
 
 lint: $(STAMP)
 	$(VENV)/bin/ruff check slamlib tests tools bench
@@ -36,6 +38,18 @@ nbval: $(STAMP)
 notebooks: $(STAMP)
 	env -u MPLBACKEND $(PY) tools/execute_notebooks.py notebooks/*.ipynb
 
+## Re-execute only the notebooks that failed (or timed out) in the last `make notebooks`
+notebooks-failed: $(STAMP)
+	env -u MPLBACKEND $(PY) tools/execute_notebooks.py --failed
+
+## Fail if `make notebooks` would change a committed notebook (outputs tagged nbval-ignore-output aside)
+check-notebooks: $(STAMP)
+	env -u MPLBACKEND $(PY) tools/execute_notebooks.py --check notebooks/*.ipynb
+
+## The web edition: static HTML of every chapter (committed outputs, not re-executed) in book/_build/html
+book: $(STAMP)
+	$(PY) tools/build_book.py
+
 ## Student edition: notebooks with the solutions emptied, into student/
 student: $(STAMP)
 	$(PY) tools/make_student.py notebooks student
@@ -44,9 +58,10 @@ student: $(STAMP)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
 
-## Open the course in JupyterLab on localhost
+## Open the course in JupyterLab on 127.0.0.1:8888 with a token (as root too, e.g. in a container)
 lab: $(STAMP)
-	$(VENV)/bin/jupyter lab --ip=127.0.0.1 notebooks
+	$(VENV)/bin/jupyter lab --ip=127.0.0.1 --port=8888 --no-browser \
+	    $(if $(filter 0,$(shell id -u)),--allow-root) notebooks
 
 ## Benchmarks (print numbers; never pass/fail)
 bench: $(STAMP)
@@ -54,4 +69,4 @@ bench: $(STAMP)
 	$(PY) bench/bench_vision.py
 
 clean:
-	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache
+	rm -rf $(VENV) figures student book/_build .notebooks-failed .pytest_cache .hypothesis .ruff_cache
