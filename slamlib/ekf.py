@@ -97,6 +97,7 @@ are exactly what they were.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -105,10 +106,11 @@ import numpy as np
 
 from .models import (
     KOBUKI_WHEEL_BASE,
+    _check_motion_args,
+    _motion_step,
+    _wrap_array,
     inverse_observation_jacobians,
     inverse_observe,
-    motion_jacobians,
-    motion_model,
     wrap_angle,
 )
 from .validate import as_covariance, as_finite_scalar, as_positive, as_vector
@@ -166,6 +168,22 @@ def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarra
     dx = L[:, 0] - pose[0]
     dy = L[:, 1] - pose[1]
     q = dx * dx + dy * dy
+    k = L.shape[0]
+    if (q > 0.0).all():                  # no landmark on the robot: the same numbers, faster
+        r = np.sqrt(q)
+        h = np.empty((k, 2))
+        h[:, 0] = r
+        h[:, 1] = _wrap_array(np.arctan2(dy, dx) - pose[2])
+        Hl = np.empty((k, 2, 2))
+        Hl[:, 0, 0] = dx / r
+        Hl[:, 0, 1] = dy / r
+        Hl[:, 1, 0] = -dy / q
+        Hl[:, 1, 1] = dx / q
+        Hp = np.empty((k, 2, 3))
+        Hp[:, :, :2] = -Hl
+        Hp[:, 0, 2] = 0.0
+        Hp[:, 1, 2] = -1.0
+        return h, Hp, Hl
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.sqrt(q)
         q = np.where(q > 0.0, q, np.nan)
@@ -322,6 +340,12 @@ def _as_reading_noise(R, default: np.ndarray, k: int) -> np.ndarray:
         raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
                          f"got {a.shape}")
     # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
+    if np.isfinite(a).all():                   # the usual case, the same checks in fewer steps
+        scale = np.maximum(1.0, np.abs(a).max(axis=(1, 2)))
+        if ((np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale).all()
+                and (a[:, 0, 0] > 0.0).all()
+                and (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0).all()):
+            return 0.5 * (a + a.transpose(0, 2, 1))
     finite = np.all(np.isfinite(a), axis=(1, 2))
     scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
     sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
@@ -427,12 +451,30 @@ class _EKFBase:
         ``x_B <- f(x_B, u)``, ``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``;
         the landmarks do not move.
         """
-        pose = self._x[:3]
-        # motion_jacobians checks u and dt (ValueError naming them) before anything changes
-        A, W = motion_jacobians(pose, u, dt, self.wheel_base)
-        new_pose = motion_model(pose, u, dt, self.wheel_base)
+        # u and dt are checked (ValueError naming them) once, before anything changes
+        if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
+                and type(dt) is float and dt >= 0.0 and math.isfinite(dt)
+                and math.isfinite(u[0]) and math.isfinite(u[1])):
+            _, u, dt, _ = _check_motion_args(self._x[:3], u, dt, self.wheel_base)
+        self._predict(u, dt)
+
+    def _predict(self, u: np.ndarray, dt: float) -> None:
+        """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
+        new_pose, A, W = self.motion_step(self._x[:3], u, dt)
         self._predict_cov(A, W)
         self._x[:3] = new_pose
+
+    def motion_step(self, pose: np.ndarray, u: np.ndarray, dt: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The motion model that :meth:`predict` linearises (chapter 01): a hook like
+        :meth:`reading_model`.
+
+        Returns ``(f(pose, u), A, W)``: the predicted pose and the Jacobians
+        :func:`slamlib.models.motion_jacobians` at ``pose`` (u and dt checked).
+        :class:`FEJEKFSLAM` and :class:`IdealEKFSLAM` override it to evaluate A
+        elsewhere; the mean always moves with ``f(pose, u)``.
+        """
+        return _motion_step(pose, u, dt, self.wheel_base)
 
     # ------------------------------------------------------------------ update
     def _lookup(self, marker_id: int):
@@ -601,8 +643,11 @@ class _EKFBase:
         """State indices ``(m, c)`` of the robot and of each reading's landmark."""
         if np.all(slots < 0):
             return np.broadcast_to(np.arange(3), (slots.size, 3))
-        return np.column_stack([np.zeros_like(slots), np.ones_like(slots),
-                                np.full_like(slots, 2), slots, slots + 1])
+        idx = np.empty((slots.size, 5), dtype=slots.dtype)
+        idx[:, :3] = (0, 1, 2)
+        idx[:, 3] = slots
+        idx[:, 4] = slots + 1
+        return idx
 
     def _reading_jacobians(self, slots, Hp, Hl) -> np.ndarray:
         """Each reading's Jacobian restricted to the columns of ``_blocks``: (m, 2, c)."""
@@ -665,8 +710,8 @@ def _subtract_symmetric_low_rank(P: np.ndarray, n: int, E: np.ndarray, K: np.nda
     symmetrised. (A plain ``M = E @ K.T; P -= M + M.T`` does the same with an
     n x n temporary and a cache-hostile transposed pass over it.)
     """
-    U = np.hstack([E, K])
-    V = np.hstack([K, E])
+    U = np.concatenate((E, K), axis=1)
+    V = np.concatenate((K, E), axis=1)
     for i0 in range(0, n, _BLOCK):
         i1 = min(i0 + _BLOCK, n)
         strip = U[i0:i1] @ V[i0:n].T                 # rows i0:i1, columns i0:n

@@ -139,7 +139,11 @@ def reading_covariances(sensor, z) -> np.ndarray | None:
     """Each reading's covariance ``sensor.R(range)``, stacked (k, 2, 2); None without a sensor."""
     if sensor is None:
         return None
-    return np.stack([sensor.R(r) for r in np.asarray(z, dtype=float)[:, 0]])
+    rho = np.asarray(z, dtype=float)[:, 0]
+    batch = getattr(sensor, "R_batch", None)
+    if batch is not None:
+        return batch(rho)
+    return np.stack([sensor.R(r) for r in rho])
 
 
 class TraceRecorder:
@@ -193,22 +197,22 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     sensor = run.sensor() if use_sensor_R else None
     pending = None
     rec = TraceRecorder(run.enc_t[0], filt)
-    for ev in run.events(by=by):
-        if max_time is not None and ev.t > max_time:
+    predict = filt.predict
+    for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
+        if max_time is not None and t > max_time:
             break
         report = None
-        if ev.kind == "predict":
-            filt.predict(ev.u, ev.dt)
+        if kind == 0:
+            predict(*ctl)
         else:
-            obs = ev.obs
             if len(obs) == 0:
                 continue
             R = reading_covariances(sensor, obs.z)
-            if until is not None and ev.t >= until - 1e-9:
-                pending = PendingFrame(float(ev.t), obs, R)
+            if until is not None and t >= until - 1e-9:
+                pending = PendingFrame(float(t), obs, R)
                 break
             report = filt.update(obs.ids, obs.z, R=R)
-        rec.record(ev.t, ev.kind, filt, report)
+        rec.record(t, "predict" if kind == 0 else "update", filt, report)
     return rec.trace(run, filt, pending=pending)
 
 

@@ -33,12 +33,13 @@ from . import experiments as ex
 from .metrics import chi2_band, pose_error
 from .metrics import nees as _nees
 from .runs import Run
+from .validate import as_covariance
 
 __all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "DensityRow",
            "random_loop_run", "density_sweep", "Reobservation", "reobservation",
            "LandmarkPlacement", "landmark_placement", "DENSITY_EXTENT"]
 
-_METHODS = ("localization", "slam")
+_METHODS = ("localization", "slam", "fej", "ideal")
 
 
 # --------------------------------------------------------------------------- Monte-Carlo NEES
@@ -51,7 +52,7 @@ class NEESStudy:
     scenario : str
         The scenario re-simulated (:data:`slamlib.sim.SCENARIOS`).
     method : str
-        ``"localization"`` (map-based EKF) or ``"slam"``.
+        ``"localization"`` (map-based EKF), ``"slam"``, ``"fej"`` or ``"ideal"``.
     seeds : tuple of int
         One seed per run.
     t : numpy.ndarray (T,)
@@ -63,7 +64,7 @@ class NEESStudy:
     ate : numpy.ndarray (N,)
         Each run's position ATE (m).
     reobservations : tuple of Reobservation
-        SLAM only: each run's loop closure on its first landmark (:func:`reobservation`).
+        SLAM filters only: each run's loop closure on its first landmark (:func:`reobservation`).
     """
 
     scenario: str
@@ -108,24 +109,59 @@ def sample_trace(trace: ex.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(_nees(e, P)), e[:, 2] ** 2 / P[:, 2, 2]
 
 
-def _run_method(run: Run, method: str, gate):
+#: Filter names of :func:`monte_carlo` -> the runner of :mod:`slamlib.experiments`.
+_RUNNERS = {"localization": "localization", "slam": "slam", "fej": "fej_slam",
+            "ideal": "ideal_slam"}
+
+
+def _run_method(run: Run, method: str, gate, Q=None):
     if method not in _METHODS:
         raise ValueError(f"method: expected one of {_METHODS}, got {method!r}")
-    return getattr(ex, method)(run, gate=gate)
+    return getattr(ex, _RUNNERS[method])(run, gate=gate, Q=Q)
 
 
-def monte_carlo(scenario_name: str, methods: Sequence[str] = _METHODS,
+def _one_seed(job: tuple) -> tuple:
+    """Simulate one seed, run every filter, sample the NEES (one task of :func:`monte_carlo`).
+
+    Returns the run's end time and, per method, the sampled pose and heading
+    NEES on the grid ``step, 2 step, ...`` up to ``t_end`` (or the run's own
+    end), the ATE and (SLAM filters) the loop closure. The grid of a shorter
+    end is a prefix of a longer one's, so the caller can cut every run to the
+    common end without recomputing anything: the numbers do not depend on
+    which process ran which seed.
+    """
+    from .sim import scenario
+
+    scenario_name, seed, methods, step, t_end, sigma_wheel, gate, Q, sensor_overrides = job
+    run = scenario(scenario_name, seed=seed, sigma_wheel=sigma_wheel, **sensor_overrides)
+    end = float(run.enc_t[-1])
+    last = end if t_end is None else t_end
+    t = np.arange(1, int(np.floor(last / step + 1e-9)) + 1) * step
+    out = {}
+    for m in methods:
+        tr = _run_method(run, m, gate, Q)
+        a, b = sample_trace(tr, t)
+        out[m] = (a, b, ex.ate(tr.x, tr.truth).position,
+                  reobservation(tr) if m != "localization" else None)
+    return end, out
+
+
+def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "slam"),
                 seeds: Iterable[int] = range(1000, 1020), *, step: float = 0.5,
                 t_end: float | None = None, sigma_wheel: float | None = None,
-                gate: float | None = 0.95, **sensor_overrides) -> dict[str, NEESStudy]:
+                gate: float | None = 0.95, Q=None, workers: int = 1,
+                **sensor_overrides) -> dict[str, NEESStudy]:
     """Re-simulate ``scenario_name`` once per seed and run each filter of ``methods`` on it.
 
     Parameters
     ----------
     scenario_name : str
         A key of :data:`slamlib.sim.SCENARIOS` (``"arena_loop"``...).
-    methods : sequence of {"localization", "slam"}
-        The filters (both see the same simulated runs).
+    methods : sequence of {"localization", "slam", "fej", "ideal"}
+        The filters (all see the same simulated runs): the map-based EKF, EKF
+        SLAM, First-Estimates-Jacobian EKF SLAM (:class:`slamlib.ekf.FEJEKFSLAM`)
+        and the ideal EKF SLAM linearised at the truth
+        (:class:`slamlib.ekf.IdealEKFSLAM`, a simulation-only diagnostic).
     seeds : iterable of int
         One independent run per seed.
     step : float
@@ -136,13 +172,17 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = _METHODS,
     sigma_wheel, gate, **sensor_overrides
         Passed to :func:`slamlib.sim.scenario` (the filter's Q follows the
         simulated ``sigma_wheel``) and to the filter.
+    Q : array_like (2, 2), optional
+        The filters' wheel-speed covariance instead of the run's own (a filter
+        that does not know the slip, chapter 06).
+    workers : int
+        Processes sharing the seeds (1: this process). The numbers are the
+        same bit for bit for any number of workers (``tests/test_studies.py``).
 
     Returns
     -------
     dict method -> NEESStudy
     """
-    from .sim import scenario
-
     methods = (methods,) if isinstance(methods, str) else tuple(methods)
     for m in methods:
         if m not in _METHODS:
@@ -152,23 +192,37 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = _METHODS,
         raise ValueError("seeds: expected at least one seed")
     if not step > 0:
         raise ValueError(f"step: expected a positive time step, got {step}")
-    traces: dict[str, list] = {m: [] for m in methods}
-    ends = []
-    for s in seeds:
-        run = scenario(scenario_name, seed=s, sigma_wheel=sigma_wheel, **sensor_overrides)
-        ends.append(float(run.enc_t[-1]))
-        for m in methods:
-            traces[m].append(_run_method(run, m, gate))
-    end = min(ends) if t_end is None else float(t_end)
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers: expected a positive integer, got {workers!r}")
+    Q = None if Q is None else as_covariance("Q", Q, 2)
+    t_end = None if t_end is None else float(t_end)
+    jobs = [(scenario_name, s, methods, float(step), t_end, sigma_wheel, gate, Q,
+             sensor_overrides) for s in seeds]
+    results = _map(_one_seed, jobs, int(workers))
+    end = min(e for e, _ in results) if t_end is None else t_end
     t = np.arange(1, int(np.floor(end / step + 1e-9)) + 1) * step
+    T = t.size
     out = {}
     for m in methods:
-        sampled = [sample_trace(tr, t) for tr in traces[m]]
-        ate = np.array([ex.ate(tr.x, tr.truth).position for tr in traces[m]])
-        reobs = tuple(reobservation(tr) for tr in traces[m]) if m == "slam" else ()
-        out[m] = NEESStudy(scenario_name, m, seeds, t, np.array([a for a, _ in sampled]),
-                           np.array([b for _, b in sampled]), ate, reobs)
+        per = [r[m] for _, r in results]
+        reobs = tuple(p[3] for p in per) if m != "localization" else ()
+        out[m] = NEESStudy(scenario_name, m, seeds, t, np.array([p[0][:T] for p in per]),
+                           np.array([p[1][:T] for p in per]), np.array([p[2] for p in per]),
+                           reobs)
     return out
+
+
+def _map(func, jobs: list, workers: int) -> list:
+    """``[func(j) for j in jobs]``, in order, in this process or in a pool of ``workers``."""
+    if workers == 1 or len(jobs) < 2:
+        return [func(j) for j in jobs]
+    import multiprocessing as mp
+    from concurrent.futures import ProcessPoolExecutor
+
+    ctx = mp.get_context("fork" if "fork" in mp.get_all_start_methods() else "spawn")
+    chunk = max(1, len(jobs) // (4 * workers))
+    with ProcessPoolExecutor(max_workers=min(workers, len(jobs)), mp_context=ctx) as pool:
+        return list(pool.map(func, jobs, chunksize=chunk))
 
 
 def monte_carlo_nees(scenario_name: str, method: str = "slam",
