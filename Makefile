@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
-.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean
+.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean studies
 
 venv: $(STAMP)
 
@@ -44,6 +44,10 @@ student: $(STAMP)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
 
+## Regenerate chapter 06's stored Monte-Carlo studies in data/studies (bit for bit; ~10 min)
+studies: $(STAMP)
+	$(PY) tools/make_studies.py --workers 2
+
 ## Open the course in JupyterLab on localhost
 lab: $(STAMP)
 	$(VENV)/bin/jupyter lab --ip=127.0.0.1 notebooks
@@ -52,6 +56,7 @@ lab: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_ekf.py
 	$(PY) bench/bench_vision.py
+	env -u MPLBACKEND $(PY) bench/bench_monte_carlo.py --chapters
 
 clean:
 	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache

@@ -115,7 +115,8 @@ from .models import (
 )
 from .validate import as_covariance, as_finite_scalar, as_positive, as_vector
 
-__all__ = ["EKFLocalization", "EKFSLAM", "UpdateReport", "gate_threshold", "predict_readings"]
+__all__ = ["EKFLocalization", "EKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM", "UpdateReport",
+           "gate_threshold", "predict_readings"]
 
 #: The statuses a reading can get from :meth:`EKFSLAM.update`.
 STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
@@ -849,3 +850,183 @@ class EKFSLAM(_EKFBase):
     def _lookup(self, marker_id: int):
         s = self._slot.get(marker_id)
         return None if s is None else (self._x[s:s + 2], s)
+
+
+# --------------------------------------------------------------------------- linearisation points
+class FEJEKFSLAM(EKFSLAM):
+    """EKF SLAM with First-Estimates Jacobians (Huang, Mourikis & Roumeliotis 2008/2010; ch. 06).
+
+    The same constructor, :meth:`update` and report as :class:`EKFSLAM`; the
+    means move exactly as in EKF SLAM (``f`` and ``h`` at the current
+    estimate). Only the points at which the Jacobians are evaluated change, so
+    that the Jacobians of successive steps *chain* like the true system's:
+
+    - **motion**: ``A_k`` is built from the difference of the two latest
+      *propagated* poses instead of the updated one,
+      ``A_k = [[1, 0, -(y_{k+1|k} - y_{k|k-1})], [0, 1, x_{k+1|k} - x_{k|k-1}], [0, 0, 1]]``
+      (EKF SLAM uses ``x_{k+1|k} - x_{k|k}``; the two differ only after an
+      update). Matrices of this form multiply by adding their corner terms, so
+      the product of ``A`` over any interval is the ``A`` of the whole interval
+      ``x_{end|end-1} - x_{start|start-1}``, whatever the updates in between;
+    - **observation**: each landmark's Jacobians are evaluated at its *first*
+      estimate (where it was put when it was mapped) and at the propagated pose
+      ``x_{k|k-1}``, through the same :meth:`reading_model` hook.
+
+    With these, the linearised system has the true system's unobservable
+    directions (a translation of everything in x or y and a rotation about the
+    origin), so the filter no longer gains information about them from its
+    own linearisation errors: chapter 06 derives it and measures it.
+    ``W`` (the noise Jacobian) stays at the current estimate; it does not
+    enter the observability argument.
+    """
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 16):
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        self._propagated = self._x[:3].copy()     # x_{k|k-1}: the pose the last predict made
+        self._first: dict[int, np.ndarray] = {}   # state slot -> first estimate of the landmark
+
+    @property
+    def propagated_pose(self) -> np.ndarray:
+        """``x_{k|k-1}``: the pose the latest prediction produced, before any update (a copy)."""
+        return self._propagated.copy()
+
+    def first_estimate(self, marker_id: int) -> np.ndarray:
+        """Where the landmark was put when it was mapped (its Jacobians' linearisation point)."""
+        return self._first[self.landmark_index(marker_id)].copy()
+
+    def motion_step(self, pose, u, dt):
+        """``f`` at the estimate; ``A`` from ``f(pose, u) - x_{k|k-1}`` (the chained Jacobian)."""
+        new, A, W = super().motion_step(pose, u, dt)
+        A[0, 2] = -(new[1] - self._propagated[1])
+        A[1, 2] = new[0] - self._propagated[0]
+        return new, A, W
+
+    def _predict(self, u, dt) -> None:
+        super()._predict(u, dt)
+        self._propagated = self._x[:3].copy()
+
+    def _add_landmark(self, marker_id, z, R) -> None:
+        super()._add_landmark(marker_id, z, R)
+        s = self._slot[marker_id]
+        self._first[s] = self._x[s:s + 2].copy()
+
+    def _linearisation_jacobians(self, slots, Hp, Hl):
+        """The readings' Jacobians at ``x_{k|k-1}`` and each landmark's first estimate."""
+        first = np.array([self._first[int(s)] for s in slots]).reshape(-1, 2)
+        _, Hp2, Hl2 = self.reading_model(self._propagated.copy(), first)
+        ok = np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
+        return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
+
+    def _innovation_covs(self, slots, Hp, Hl, R):
+        return super()._innovation_covs(slots, *self._linearisation_jacobians(slots, Hp, Hl), R)
+
+    def _fuse(self, slots, Hp, Hl, y, R):
+        return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
+
+
+class IdealEKFSLAM(EKFSLAM):
+    """EKF SLAM linearised about the TRUE state: a diagnostic only a simulation can run (ch. 06).
+
+    It is given the true trajectory and the true map. The means move with
+    ``f`` at the estimate, as in EKF SLAM; everything the filter linearises is
+    linearised at the truth instead of at the estimate:
+
+    - the motion Jacobian from the true poses, ``A_k = [[1, 0, -(y_{k+1} -
+      y_k)], [0, 1, x_{k+1} - x_k], [0, 0, 1]]`` (so that the Jacobians chain
+      exactly), ``W`` at the true heading;
+    - each reading's Jacobians ``H_t`` at the true pose and the true landmark;
+    - with ``innovation="truth"`` (default) also the predicted reading, by its
+      first-order expansion about the truth, ``h(x_t) + H_t (x - x_t)``, so that
+      ``y = z - h(x_t) - H_t (x - x_t)`` is exactly what a Kalman filter of the
+      system linearised about the true trajectory sees. With
+      ``innovation="estimate"`` the innovation is EKF SLAM's ``z - h(x)`` and
+      only the Jacobians move to the truth: chapter 06 measures that this
+      mixture is *worse* than EKF SLAM once the heading error is a few
+      degrees (the estimate's frame is rotated from the truth's, and ``H_t``
+      maps the innovation into the wrong directions).
+
+    The inconsistency left in this filter is what the EKF's approximations
+    cost apart from the choice of linearisation point (Huang et al. 2008);
+    the difference to EKF SLAM is what linearising at the estimate costs.
+
+    Parameters
+    ----------
+    x0, P0, Q, R, wheel_base, gate, capacity
+        As for :class:`EKFSLAM`.
+    truth : callable ``t -> (3,)``
+        The true pose at time ``t`` (s), e.g. :func:`slamlib.experiments.truth_function`.
+    landmarks : dict {int: (2,)}
+        The true map. A reading of an id that is not in it (a misread) is
+        linearised at the estimate, as in EKF SLAM.
+    t0 : float
+        The time of ``x0``; each :meth:`predict` adds its ``dt``.
+    innovation : {"truth", "estimate"}
+        How the predicted reading is formed (see above).
+    """
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 16, *, truth, landmarks,
+                 t0: float = 0.0, innovation: str = "truth"):
+        if not callable(truth):
+            raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        self._truth = truth
+        self._true_map = _as_landmark_map(landmarks)
+        self.t = as_finite_scalar("t0", t0)
+        if innovation not in ("truth", "estimate"):
+            raise ValueError(f"innovation: expected 'truth' or 'estimate', got {innovation!r}")
+        self.innovation = innovation
+
+    def _true_pose(self, t: float) -> np.ndarray:
+        return as_vector("truth(t)", self._truth(t), 3)
+
+    def motion_step(self, pose, u, dt):
+        """``f`` at the estimate; ``A`` from the true poses, ``W`` at the true heading."""
+        new, _, _ = super().motion_step(pose, u, dt)
+        p0, p1 = self._true_pose(self.t), self._true_pose(self.t + dt)
+        _, _, W = super().motion_step(p0, u, dt)
+        A = np.array([[1.0, 0.0, -(p1[1] - p0[1])],
+                      [0.0, 1.0, p1[0] - p0[0]],
+                      [0.0, 0.0, 1.0]])
+        return new, A, W
+
+    def _predict(self, u, dt) -> None:
+        super()._predict(u, dt)
+        self.t += dt
+
+    def _linearisation_jacobians(self, slots, Hp, Hl):
+        """The readings' Jacobians at the true pose and the true landmarks."""
+        ids = [self._ids[(int(s) - 3) // 2] for s in slots]
+        known = np.array([i in self._true_map for i in ids])
+        L = np.array([self._true_map.get(i, np.zeros(2)) for i in ids]).reshape(-1, 2)
+        _, Hp2, Hl2 = self.reading_model(self._true_pose(self.t), L)
+        ok = known & np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
+        return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
+
+    def _innovation_covs(self, slots, Hp, Hl, R):
+        return super()._innovation_covs(slots, *self._linearisation_jacobians(slots, Hp, Hl), R)
+
+    def _fuse(self, slots, Hp, Hl, y, R):
+        return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
+
+    def reading_model(self, pose, positions):
+        """``h`` linearised about the truth: ``h(x_t) + H_t (x - x_t)`` (an ideal filter's
+        prediction of a reading), with the Jacobians ``H_t`` at the truth."""
+        h, Hp, Hl = super().reading_model(pose, positions)
+        if self.innovation != "truth" or positions.shape[0] == 0:
+            return h, Hp, Hl
+        L = self._x[3:self._n].reshape(-1, 2)
+        pt = self._true_pose(self.t)
+        for i, p in enumerate(positions):
+            j = np.flatnonzero((L[:, 0] == p[0]) & (L[:, 1] == p[1]))
+            mid = self._ids[int(j[0])] if j.size else None
+            if mid is None or mid not in self._true_map or not np.isfinite(h[i, 1]):
+                continue
+            lt = self._true_map[mid]
+            ht, Hpt, Hlt = super().reading_model(pt, lt[None, :])
+            dp = pose - pt
+            dp[2] = wrap_angle(dp[2])
+            lin = ht[0] + Hpt[0] @ dp + Hlt[0] @ (p - lt)
+            h[i] = [lin[0], wrap_angle(lin[1])]
+        return h, Hp, Hl

@@ -48,7 +48,7 @@ from .worlds import World
 
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
            "encoder_counter", "KobukiSim", "simulate", "arena_loop_waypoints", "loop_waypoints",
-           "SCENARIOS", "scenario", "kobuki_params_dict"]
+           "arena_laps_waypoints", "SCENARIOS", "STUDY_SCENARIOS", "scenario", "kobuki_params_dict"]
 
 
 # --------------------------------------------------------------------------- pure pieces
@@ -494,6 +494,23 @@ SCENARIOS = {
 }
 
 
+#: Scenarios for studies only (not recorded in ``data/runs``): name -> as :data:`SCENARIOS`.
+STUDY_SCENARIOS = {
+    "arena_laps": ("report_arena", "arena_laps", 1, {},
+                   "The arena loop driven three times (chapter 06): the same waypoints, lap "
+                   "after lap, so the heading uncertainty of the long stretches grows three "
+                   "times as long and the filter closes the loop twice more."),
+}
+
+
+def arena_laps_waypoints(laps: int = 3) -> np.ndarray:
+    """:func:`arena_loop_waypoints` driven ``laps`` times: each further lap goes from the
+    first leg round the post again, and the last one ends like the single loop."""
+    wp = arena_loop_waypoints()
+    lap = np.vstack([wp[8:10], wp[1:8]])                  # back along the first leg, round again
+    return np.vstack([wp[:8]] + [lap] * (int(laps) - 1) + [wp[8:10]])
+
+
 def scenario(name: str, *, seed: int | None = None, sigma_wheel: float | None = None,
              sensor=None, **sensor_overrides) -> Run:
     """Simulate one of the recorded scenarios (:data:`SCENARIOS`), optionally changed.
@@ -504,12 +521,15 @@ def scenario(name: str, *, seed: int | None = None, sigma_wheel: float | None = 
     """
     from .worlds import load_world
 
-    if name not in SCENARIOS:
-        raise ValueError(f"name: expected one of {sorted(SCENARIOS)}, got {name!r}")
-    world_name, path, seed0, overrides, description = SCENARIOS[name]
+    known = {**SCENARIOS, **STUDY_SCENARIOS}
+    if name not in known:
+        raise ValueError(f"name: expected one of {sorted(known)}, got {name!r}")
+    world_name, path, seed0, overrides, description = known[name]
     world = load_world(world_name)
     if path == "arena":
         waypoints = arena_loop_waypoints()
+    elif path == "arena_laps":
+        waypoints = arena_laps_waypoints(3)
     else:
         waypoints = loop_waypoints(world.bounds, margin=1.0)[1:]
     if sensor is None:
