@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book student \
-        runs lab bench clean
+        runs lab bench clean studies
 
 venv: $(STAMP)
 
@@ -58,6 +58,10 @@ student: $(STAMP)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
 
+## Regenerate chapter 06's stored Monte-Carlo studies in data/studies (bit for bit; ~10 min)
+studies: $(STAMP)
+	$(PY) tools/make_studies.py --workers 2
+
 ## Open the course in JupyterLab on 127.0.0.1:8888 with a token (as root too, e.g. in a container)
 lab: $(STAMP)
 	$(VENV)/bin/jupyter lab --ip=127.0.0.1 --port=8888 --no-browser \
@@ -67,6 +71,7 @@ lab: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_ekf.py
 	$(PY) bench/bench_vision.py
+	env -u MPLBACKEND $(PY) bench/bench_monte_carlo.py --chapters
 
 clean:
 	rm -rf $(VENV) figures student book/_build .notebooks-failed .pytest_cache .hypothesis .ruff_cache

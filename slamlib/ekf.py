@@ -97,6 +97,7 @@ are exactly what they were.
 
 from __future__ import annotations
 
+import math
 import numbers
 from collections.abc import Mapping
 from dataclasses import dataclass
@@ -105,15 +106,17 @@ import numpy as np
 
 from .models import (
     KOBUKI_WHEEL_BASE,
+    _check_motion_args,
+    _motion_step,
+    _wrap_array,
     inverse_observation_jacobians,
     inverse_observe,
-    motion_jacobians,
-    motion_model,
     wrap_angle,
 )
 from .validate import as_covariance, as_finite_scalar, as_positive, as_vector
 
-__all__ = ["EKFLocalization", "EKFSLAM", "UpdateReport", "gate_threshold", "predict_readings"]
+__all__ = ["EKFLocalization", "EKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM", "UpdateReport",
+           "gate_threshold", "predict_readings"]
 
 #: The statuses a reading can get from :meth:`EKFSLAM.update`.
 STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
@@ -166,6 +169,22 @@ def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarra
     dx = L[:, 0] - pose[0]
     dy = L[:, 1] - pose[1]
     q = dx * dx + dy * dy
+    k = L.shape[0]
+    if (q > 0.0).all():                  # no landmark on the robot: the same numbers, faster
+        r = np.sqrt(q)
+        h = np.empty((k, 2))
+        h[:, 0] = r
+        h[:, 1] = _wrap_array(np.arctan2(dy, dx) - pose[2])
+        Hl = np.empty((k, 2, 2))
+        Hl[:, 0, 0] = dx / r
+        Hl[:, 0, 1] = dy / r
+        Hl[:, 1, 0] = -dy / q
+        Hl[:, 1, 1] = dx / q
+        Hp = np.empty((k, 2, 3))
+        Hp[:, :, :2] = -Hl
+        Hp[:, 0, 2] = 0.0
+        Hp[:, 1, 2] = -1.0
+        return h, Hp, Hl
     with np.errstate(divide="ignore", invalid="ignore"):
         r = np.sqrt(q)
         q = np.where(q > 0.0, q, np.nan)
@@ -322,6 +341,12 @@ def _as_reading_noise(R, default: np.ndarray, k: int) -> np.ndarray:
         raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
                          f"got {a.shape}")
     # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
+    if np.isfinite(a).all():                   # the usual case, the same checks in fewer steps
+        scale = np.maximum(1.0, np.abs(a).max(axis=(1, 2)))
+        if ((np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale).all()
+                and (a[:, 0, 0] > 0.0).all()
+                and (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0).all()):
+            return 0.5 * (a + a.transpose(0, 2, 1))
     finite = np.all(np.isfinite(a), axis=(1, 2))
     scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
     sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
@@ -427,12 +452,30 @@ class _EKFBase:
         ``x_B <- f(x_B, u)``, ``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``;
         the landmarks do not move.
         """
-        pose = self._x[:3]
-        # motion_jacobians checks u and dt (ValueError naming them) before anything changes
-        A, W = motion_jacobians(pose, u, dt, self.wheel_base)
-        new_pose = motion_model(pose, u, dt, self.wheel_base)
+        # u and dt are checked (ValueError naming them) once, before anything changes
+        if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
+                and type(dt) is float and dt >= 0.0 and math.isfinite(dt)
+                and math.isfinite(u[0]) and math.isfinite(u[1])):
+            _, u, dt, _ = _check_motion_args(self._x[:3], u, dt, self.wheel_base)
+        self._predict(u, dt)
+
+    def _predict(self, u: np.ndarray, dt: float) -> None:
+        """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
+        new_pose, A, W = self.motion_step(self._x[:3], u, dt)
         self._predict_cov(A, W)
         self._x[:3] = new_pose
+
+    def motion_step(self, pose: np.ndarray, u: np.ndarray, dt: float
+                    ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """The motion model that :meth:`predict` linearises (chapter 01): a hook like
+        :meth:`reading_model`.
+
+        Returns ``(f(pose, u), A, W)``: the predicted pose and the Jacobians
+        :func:`slamlib.models.motion_jacobians` at ``pose`` (u and dt checked).
+        :class:`FEJEKFSLAM` and :class:`IdealEKFSLAM` override it to evaluate A
+        elsewhere; the mean always moves with ``f(pose, u)``.
+        """
+        return _motion_step(pose, u, dt, self.wheel_base)
 
     # ------------------------------------------------------------------ update
     def _lookup(self, marker_id: int):
@@ -601,8 +644,11 @@ class _EKFBase:
         """State indices ``(m, c)`` of the robot and of each reading's landmark."""
         if np.all(slots < 0):
             return np.broadcast_to(np.arange(3), (slots.size, 3))
-        return np.column_stack([np.zeros_like(slots), np.ones_like(slots),
-                                np.full_like(slots, 2), slots, slots + 1])
+        idx = np.empty((slots.size, 5), dtype=slots.dtype)
+        idx[:, :3] = (0, 1, 2)
+        idx[:, 3] = slots
+        idx[:, 4] = slots + 1
+        return idx
 
     def _reading_jacobians(self, slots, Hp, Hl) -> np.ndarray:
         """Each reading's Jacobian restricted to the columns of ``_blocks``: (m, 2, c)."""
@@ -665,8 +711,8 @@ def _subtract_symmetric_low_rank(P: np.ndarray, n: int, E: np.ndarray, K: np.nda
     symmetrised. (A plain ``M = E @ K.T; P -= M + M.T`` does the same with an
     n x n temporary and a cache-hostile transposed pass over it.)
     """
-    U = np.hstack([E, K])
-    V = np.hstack([K, E])
+    U = np.concatenate((E, K), axis=1)
+    V = np.concatenate((K, E), axis=1)
     for i0 in range(0, n, _BLOCK):
         i1 = min(i0 + _BLOCK, n)
         strip = U[i0:i1] @ V[i0:n].T                 # rows i0:i1, columns i0:n
@@ -804,3 +850,183 @@ class EKFSLAM(_EKFBase):
     def _lookup(self, marker_id: int):
         s = self._slot.get(marker_id)
         return None if s is None else (self._x[s:s + 2], s)
+
+
+# --------------------------------------------------------------------------- linearisation points
+class FEJEKFSLAM(EKFSLAM):
+    """EKF SLAM with First-Estimates Jacobians (Huang, Mourikis & Roumeliotis 2008/2010; ch. 06).
+
+    The same constructor, :meth:`update` and report as :class:`EKFSLAM`; the
+    means move exactly as in EKF SLAM (``f`` and ``h`` at the current
+    estimate). Only the points at which the Jacobians are evaluated change, so
+    that the Jacobians of successive steps *chain* like the true system's:
+
+    - **motion**: ``A_k`` is built from the difference of the two latest
+      *propagated* poses instead of the updated one,
+      ``A_k = [[1, 0, -(y_{k+1|k} - y_{k|k-1})], [0, 1, x_{k+1|k} - x_{k|k-1}], [0, 0, 1]]``
+      (EKF SLAM uses ``x_{k+1|k} - x_{k|k}``; the two differ only after an
+      update). Matrices of this form multiply by adding their corner terms, so
+      the product of ``A`` over any interval is the ``A`` of the whole interval
+      ``x_{end|end-1} - x_{start|start-1}``, whatever the updates in between;
+    - **observation**: each landmark's Jacobians are evaluated at its *first*
+      estimate (where it was put when it was mapped) and at the propagated pose
+      ``x_{k|k-1}``, through the same :meth:`reading_model` hook.
+
+    With these, the linearised system has the true system's unobservable
+    directions (a translation of everything in x or y and a rotation about the
+    origin), so the filter no longer gains information about them from its
+    own linearisation errors: chapter 06 derives it and measures it.
+    ``W`` (the noise Jacobian) stays at the current estimate; it does not
+    enter the observability argument.
+    """
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 16):
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        self._propagated = self._x[:3].copy()     # x_{k|k-1}: the pose the last predict made
+        self._first: dict[int, np.ndarray] = {}   # state slot -> first estimate of the landmark
+
+    @property
+    def propagated_pose(self) -> np.ndarray:
+        """``x_{k|k-1}``: the pose the latest prediction produced, before any update (a copy)."""
+        return self._propagated.copy()
+
+    def first_estimate(self, marker_id: int) -> np.ndarray:
+        """Where the landmark was put when it was mapped (its Jacobians' linearisation point)."""
+        return self._first[self.landmark_index(marker_id)].copy()
+
+    def motion_step(self, pose, u, dt):
+        """``f`` at the estimate; ``A`` from ``f(pose, u) - x_{k|k-1}`` (the chained Jacobian)."""
+        new, A, W = super().motion_step(pose, u, dt)
+        A[0, 2] = -(new[1] - self._propagated[1])
+        A[1, 2] = new[0] - self._propagated[0]
+        return new, A, W
+
+    def _predict(self, u, dt) -> None:
+        super()._predict(u, dt)
+        self._propagated = self._x[:3].copy()
+
+    def _add_landmark(self, marker_id, z, R) -> None:
+        super()._add_landmark(marker_id, z, R)
+        s = self._slot[marker_id]
+        self._first[s] = self._x[s:s + 2].copy()
+
+    def _linearisation_jacobians(self, slots, Hp, Hl):
+        """The readings' Jacobians at ``x_{k|k-1}`` and each landmark's first estimate."""
+        first = np.array([self._first[int(s)] for s in slots]).reshape(-1, 2)
+        _, Hp2, Hl2 = self.reading_model(self._propagated.copy(), first)
+        ok = np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
+        return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
+
+    def _innovation_covs(self, slots, Hp, Hl, R):
+        return super()._innovation_covs(slots, *self._linearisation_jacobians(slots, Hp, Hl), R)
+
+    def _fuse(self, slots, Hp, Hl, y, R):
+        return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
+
+
+class IdealEKFSLAM(EKFSLAM):
+    """EKF SLAM linearised about the TRUE state: a diagnostic only a simulation can run (ch. 06).
+
+    It is given the true trajectory and the true map. The means move with
+    ``f`` at the estimate, as in EKF SLAM; everything the filter linearises is
+    linearised at the truth instead of at the estimate:
+
+    - the motion Jacobian from the true poses, ``A_k = [[1, 0, -(y_{k+1} -
+      y_k)], [0, 1, x_{k+1} - x_k], [0, 0, 1]]`` (so that the Jacobians chain
+      exactly), ``W`` at the true heading;
+    - each reading's Jacobians ``H_t`` at the true pose and the true landmark;
+    - with ``innovation="truth"`` (default) also the predicted reading, by its
+      first-order expansion about the truth, ``h(x_t) + H_t (x - x_t)``, so that
+      ``y = z - h(x_t) - H_t (x - x_t)`` is exactly what a Kalman filter of the
+      system linearised about the true trajectory sees. With
+      ``innovation="estimate"`` the innovation is EKF SLAM's ``z - h(x)`` and
+      only the Jacobians move to the truth: chapter 06 measures that this
+      mixture is *worse* than EKF SLAM once the heading error is a few
+      degrees (the estimate's frame is rotated from the truth's, and ``H_t``
+      maps the innovation into the wrong directions).
+
+    The inconsistency left in this filter is what the EKF's approximations
+    cost apart from the choice of linearisation point (Huang et al. 2008);
+    the difference to EKF SLAM is what linearising at the estimate costs.
+
+    Parameters
+    ----------
+    x0, P0, Q, R, wheel_base, gate, capacity
+        As for :class:`EKFSLAM`.
+    truth : callable ``t -> (3,)``
+        The true pose at time ``t`` (s), e.g. :func:`slamlib.experiments.truth_function`.
+    landmarks : dict {int: (2,)}
+        The true map. A reading of an id that is not in it (a misread) is
+        linearised at the estimate, as in EKF SLAM.
+    t0 : float
+        The time of ``x0``; each :meth:`predict` adds its ``dt``.
+    innovation : {"truth", "estimate"}
+        How the predicted reading is formed (see above).
+    """
+
+    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
+                 gate: float | None = 0.95, capacity: int = 16, *, truth, landmarks,
+                 t0: float = 0.0, innovation: str = "truth"):
+        if not callable(truth):
+            raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        self._truth = truth
+        self._true_map = _as_landmark_map(landmarks)
+        self.t = as_finite_scalar("t0", t0)
+        if innovation not in ("truth", "estimate"):
+            raise ValueError(f"innovation: expected 'truth' or 'estimate', got {innovation!r}")
+        self.innovation = innovation
+
+    def _true_pose(self, t: float) -> np.ndarray:
+        return as_vector("truth(t)", self._truth(t), 3)
+
+    def motion_step(self, pose, u, dt):
+        """``f`` at the estimate; ``A`` from the true poses, ``W`` at the true heading."""
+        new, _, _ = super().motion_step(pose, u, dt)
+        p0, p1 = self._true_pose(self.t), self._true_pose(self.t + dt)
+        _, _, W = super().motion_step(p0, u, dt)
+        A = np.array([[1.0, 0.0, -(p1[1] - p0[1])],
+                      [0.0, 1.0, p1[0] - p0[0]],
+                      [0.0, 0.0, 1.0]])
+        return new, A, W
+
+    def _predict(self, u, dt) -> None:
+        super()._predict(u, dt)
+        self.t += dt
+
+    def _linearisation_jacobians(self, slots, Hp, Hl):
+        """The readings' Jacobians at the true pose and the true landmarks."""
+        ids = [self._ids[(int(s) - 3) // 2] for s in slots]
+        known = np.array([i in self._true_map for i in ids])
+        L = np.array([self._true_map.get(i, np.zeros(2)) for i in ids]).reshape(-1, 2)
+        _, Hp2, Hl2 = self.reading_model(self._true_pose(self.t), L)
+        ok = known & np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
+        return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
+
+    def _innovation_covs(self, slots, Hp, Hl, R):
+        return super()._innovation_covs(slots, *self._linearisation_jacobians(slots, Hp, Hl), R)
+
+    def _fuse(self, slots, Hp, Hl, y, R):
+        return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
+
+    def reading_model(self, pose, positions):
+        """``h`` linearised about the truth: ``h(x_t) + H_t (x - x_t)`` (an ideal filter's
+        prediction of a reading), with the Jacobians ``H_t`` at the truth."""
+        h, Hp, Hl = super().reading_model(pose, positions)
+        if self.innovation != "truth" or positions.shape[0] == 0:
+            return h, Hp, Hl
+        L = self._x[3:self._n].reshape(-1, 2)
+        pt = self._true_pose(self.t)
+        for i, p in enumerate(positions):
+            j = np.flatnonzero((L[:, 0] == p[0]) & (L[:, 1] == p[1]))
+            mid = self._ids[int(j[0])] if j.size else None
+            if mid is None or mid not in self._true_map or not np.isfinite(h[i, 1]):
+                continue
+            lt = self._true_map[mid]
+            ht, Hpt, Hlt = super().reading_model(pt, lt[None, :])
+            dp = pose - pt
+            dp[2] = wrap_angle(dp[2])
+            lin = ht[0] + Hpt[0] @ dp + Hlt[0] @ (p - lt)
+            h[i] = [lin[0], wrap_angle(lin[1])]
+        return h, Hp, Hl

@@ -23,16 +23,19 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .ekf import EKFSLAM, EKFLocalization, UpdateReport
+from .ekf import EKFSLAM, FEJEKFSLAM, EKFLocalization, IdealEKFSLAM, UpdateReport
 from .metrics import ate, nees, pose_error
+from .models import wrap_angle
 from .runs import Run
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
-           "dead_reckoning", "localization", "slam", "map_error", "DEFAULT_P0", "DEFAULT_R"]
+           "dead_reckoning", "localization", "slam", "fej_slam", "ideal_slam", "truth_function",
+           "sensor_noise", "map_error", "DEFAULT_P0", "DEFAULT_R"]
 
 #: Initial pose covariance: the robot starts where the map's frame is defined.
 DEFAULT_P0 = np.diag([1e-6, 1e-6, 1e-6])
-#: Reading covariance used when the run's sensor does not give one (5 cm, 2 deg).
+#: The filter's R slot when no reading is ever fused (dead reckoning, a run without readings);
+#: never a silent default for readings (5 cm, 2 deg).
 DEFAULT_R = np.diag([0.05**2, np.radians(2.0) ** 2])
 
 
@@ -139,7 +142,11 @@ def reading_covariances(sensor, z) -> np.ndarray | None:
     """Each reading's covariance ``sensor.R(range)``, stacked (k, 2, 2); None without a sensor."""
     if sensor is None:
         return None
-    return np.stack([sensor.R(r) for r in np.asarray(z, dtype=float)[:, 0]])
+    rho = np.asarray(z, dtype=float)[:, 0]
+    batch = getattr(sensor, "R_batch", None)
+    if batch is not None:
+        return batch(rho)
+    return np.stack([sensor.R(r) for r in rho])
 
 
 class TraceRecorder:
@@ -190,37 +197,71 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
         unfused in ``trace.pending`` (with the R it would have been given), so
         that ``trace.filter.update(p.obs.ids, p.obs.z, R=p.R)`` is the next step.
     """
-    sensor = run.sensor() if use_sensor_R else None
+    sensor = sensor_noise(run) if use_sensor_R else None
     pending = None
     rec = TraceRecorder(run.enc_t[0], filt)
-    for ev in run.events(by=by):
-        if max_time is not None and ev.t > max_time:
+    predict = filt.predict
+    for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
+        if max_time is not None and t > max_time:
             break
         report = None
-        if ev.kind == "predict":
-            filt.predict(ev.u, ev.dt)
+        if kind == 0:
+            predict(*ctl)
         else:
-            obs = ev.obs
             if len(obs) == 0:
                 continue
             R = reading_covariances(sensor, obs.z)
-            if until is not None and ev.t >= until - 1e-9:
-                pending = PendingFrame(float(ev.t), obs, R)
+            if until is not None and t >= until - 1e-9:
+                pending = PendingFrame(float(t), obs, R)
                 break
             report = filt.update(obs.ids, obs.z, R=R)
-        rec.record(ev.t, ev.kind, filt, report)
+        rec.record(t, "predict" if kind == 0 else "update", filt, report)
     return rec.trace(run, filt, pending=pending)
 
 
-def _R(run: Run) -> np.ndarray:
+def sensor_noise(run: Run):
+    """The noise model of the sensor that made ``run``'s readings (an object with ``R(rho)``),
+    rebuilt from the run's meta; None when the meta does not say.
+
+    The analytic sensor (:meth:`Run.sensor`), or for a run recorded through the
+    camera pipeline (``vision.CameraMarkerSensor``) the noise model it was
+    given (:class:`slamlib.vision.NoiseModel`, whose ``R(rho)`` the sensor uses).
+    """
     sensor = run.sensor()
-    return DEFAULT_R if sensor is None else sensor.R(2.0)
+    if sensor is not None:
+        return sensor
+    d = run.meta.get("sensor") or {}
+    if d.get("type") == "CameraMarkerSensor" and isinstance(d.get("noise_model"), dict):
+        from .vision import NoiseModel
+
+        return NoiseModel(**d["noise_model"])
+    return None
+
+
+def _R(run: Run, *, needed: bool = True) -> np.ndarray:
+    """The filter's default reading covariance for ``run``: its sensor's ``R`` at 2 m.
+
+    A run whose readings come from a sensor the meta does not describe gets
+    no silent default (issue 9): ValueError, saying what to pass. Without
+    readings (or when ``needed`` is False, dead reckoning) no R is ever used;
+    :data:`DEFAULT_R` fills the filter's slot.
+    """
+    noise = sensor_noise(run)
+    if noise is not None:
+        return noise.R(2.0)
+    if not needed or len(run.camera) == 0:
+        return DEFAULT_R
+    kind = (run.meta.get("sensor") or {}).get("type", "not recorded")
+    raise ValueError(f"R: run {run.name!r} has {len(run.camera)} readings from a sensor whose "
+                     f"noise model the run does not give (sensor type: {kind}); pass R=<2x2 "
+                     f"covariance of a reading [range, bearing]> (it is then used for every "
+                     f"reading)")
 
 
 def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = None) -> Trace:
     """Prediction only, from the run's first true pose (chapter 01, the report's Fig. 4)."""
     Q = run.Q() if Q is None else Q
-    filt = EKFLocalization(run.start_pose, P0, Q, _R(run), landmarks={},
+    filt = EKFLocalization(run.start_pose, P0, Q, _R(run, needed=False), landmarks={},
                            wheel_base=run.wheel_base)
     rec = TraceRecorder(run.enc_t[0], filt)
     u, dt = run.controls()
@@ -249,11 +290,56 @@ def slam(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
 
     ``max_time`` and ``until`` are passed to :func:`run_filter`.
     """
+    return _slam_with(EKFSLAM, run, {}, gate=gate, Q=Q, P0=P0, R=R, by=by,
+                      use_sensor_R=use_sensor_R, max_time=max_time, until=until)
+
+
+def fej_slam(run: Run, **kwargs) -> Trace:
+    """:func:`slam` with :class:`~slamlib.ekf.FEJEKFSLAM` (First-Estimates Jacobians, ch. 06)."""
+    return _slam_with(FEJEKFSLAM, run, {}, **kwargs)
+
+
+def ideal_slam(run: Run, **kwargs) -> Trace:
+    """:func:`slam` with :class:`~slamlib.ekf.IdealEKFSLAM`: Jacobians at the run's truth (ch. 06).
+
+    The filter is given the run's true trajectory (:func:`truth_function`) and
+    its world's true map: a diagnostic only a simulated run allows.
+    """
+    extra = {"truth": truth_function(run), "landmarks": run.world().landmarks(),
+             "t0": float(run.enc_t[0])}
+    return _slam_with(IdealEKFSLAM, run, extra, **kwargs)
+
+
+def _slam_with(cls, run: Run, extra: dict, *, gate: float | None = 0.95, Q=None,
+               P0=DEFAULT_P0, R=None, by: str = "capture", use_sensor_R: bool = True,
+               max_time: float | None = None, until: float | None = None) -> Trace:
     Q = run.Q() if Q is None else Q
-    filt = EKFSLAM(run.start_pose, P0, Q, _R(run) if R is None else R,
-                   wheel_base=run.wheel_base, gate=gate)
+    filt = cls(run.start_pose, P0, Q, _R(run) if R is None else R,
+               wheel_base=run.wheel_base, gate=gate, **extra)
     return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
                       max_time=max_time, until=until)
+
+
+def truth_function(run: Run):
+    """A fast ``t -> true pose`` of ``run``: :meth:`Run.truth_at` for one time at a time.
+
+    Exact at the recorded truth times (a filter's clock, a sum of encoder
+    periods, lands within 1e-9 s of them), linear in between (heading
+    unwrapped), clamped outside; the unwrapping is done once, not per call.
+    """
+    t, X = run.truth_t, run.truth
+    th = np.unwrap(X[:, 2])
+    n = t.size
+
+    def pose_at(time: float) -> np.ndarray:
+        i = int(np.searchsorted(t, time))
+        for j in (i - 1, i):
+            if 0 <= j < n and abs(t[j] - time) <= 1e-9:
+                return X[j].copy()
+        return np.array([np.interp(time, t, X[:, 0]), np.interp(time, t, X[:, 1]),
+                         wrap_angle(float(np.interp(time, t, th)))])
+
+    return pose_at
 
 
 def map_error(filt: EKFSLAM, world) -> tuple[float, dict[int, float]]:

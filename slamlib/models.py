@@ -21,6 +21,8 @@ Conventions
 
 from __future__ import annotations
 
+import math
+
 import numpy as np
 
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
@@ -43,6 +45,9 @@ KOBUKI_WHEEL_RADIUS = 0.035
 #: Kobuki encoder ticks per wheel revolution (52 ticks/motor rev x 6545/132 gear).
 KOBUKI_TICKS_PER_REV = 52 * 6545 / 132
 
+_PI = float(np.pi)
+_TWO_PI = 2.0 * float(np.pi)
+
 
 # --------------------------------------------------------------------------- angles
 def wrap_angle(angle):
@@ -58,13 +63,35 @@ def wrap_angle(angle):
     float or numpy.ndarray
         The same angle(s) in [-pi, pi); a float for a scalar input.
     """
+    if type(angle) is float or type(angle) is np.float64:
+        return float(_wrap_scalar(angle))          # the same result, without the array machinery
     a = np.asarray(angle, dtype=float)
-    if not np.all(np.isfinite(a)):
+    if not np.isfinite(a).all():
         raise ValueError(f"angle: expected finite numbers, got {angle!r}")
     w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
     # np.mod can round up to exactly 2*pi for tiny negative inputs.
     w = np.where(w >= np.pi, w - 2.0 * np.pi, w)
     return float(w) if w.ndim == 0 else w
+
+
+def _wrap_array(a: np.ndarray) -> np.ndarray:
+    """:func:`wrap_angle` of a float array known to be finite: the same operations, unchecked."""
+    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
+    return np.where(w >= np.pi, w - 2.0 * np.pi, w)
+
+
+def _wrap_scalar(a: float) -> float:
+    """:func:`wrap_angle` of one finite float, unchecked, bit for bit the same.
+
+    For the library's own per-step loops (the simulator, the filters' predict):
+    Python's float ``%`` is C ``fmod`` followed by the same sign correction as
+    ``np.mod``, so the result equals ``wrap_angle(a)`` exactly
+    (``tests/test_models.py`` checks it), at a tenth of the cost.
+    """
+    if not math.isfinite(a):
+        raise ValueError(f"angle: expected finite numbers, got {a!r}")
+    w = (a + _PI) % _TWO_PI - _PI
+    return w - _TWO_PI if w >= _PI else w
 
 
 # --------------------------------------------------------------------------- wheels
@@ -183,10 +210,33 @@ def motion_model(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.n
     numpy.ndarray, shape (3,)
         Pose at k, heading wrapped to [-pi, pi).
     """
-    x, u, dt, b = _check_motion_args(x, u, dt, wheel_base)
+    return _motion_model(*_check_motion_args(x, u, dt, wheel_base))
+
+
+def _motion_model(x: np.ndarray, u: np.ndarray, dt: float, b: float) -> np.ndarray:
+    """:func:`motion_model` on checked arguments (the filters' predict checks them once)."""
     v, w = 0.5 * (u[0] + u[1]), (u[1] - u[0]) / b
     c, s = np.cos(x[2]), np.sin(x[2])
-    return np.array([x[0] + v * c * dt, x[1] + v * s * dt, wrap_angle(x[2] + w * dt)])
+    return np.array([x[0] + v * c * dt, x[1] + v * s * dt, _wrap_scalar(float(x[2] + w * dt))])
+
+
+def _motion_step(x: np.ndarray, u: np.ndarray, dt: float, b: float
+                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """``(motion_model, *motion_jacobians)`` on checked arguments, the trigonometry done once.
+
+    The same operations as :func:`_motion_model` and :func:`_motion_jacobians`,
+    so the results are bit for bit those of the two public functions.
+    """
+    v, w = 0.5 * (u[0] + u[1]), (u[1] - u[0]) / b
+    c, s = np.cos(x[2]), np.sin(x[2])
+    new = np.array([x[0] + v * c * dt, x[1] + v * s * dt, _wrap_scalar(float(x[2] + w * dt))])
+    A = np.array([[1.0, 0.0, -v * s * dt],
+                  [0.0, 1.0, v * c * dt],
+                  [0.0, 0.0, 1.0]])
+    W = np.array([[0.5 * c * dt, 0.5 * c * dt],
+                  [0.5 * s * dt, 0.5 * s * dt],
+                  [-dt / b, dt / b]])
+    return new, A, W
 
 
 def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
@@ -207,7 +257,12 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
     -------
     (A, W) : (numpy.ndarray (3, 3), numpy.ndarray (3, 2))
     """
-    x, u, dt, b = _check_motion_args(x, u, dt, wheel_base)
+    return _motion_jacobians(*_check_motion_args(x, u, dt, wheel_base))
+
+
+def _motion_jacobians(x: np.ndarray, u: np.ndarray, dt: float, b: float
+                      ) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`motion_jacobians` on checked arguments."""
     v = 0.5 * (u[0] + u[1])
     c, s = np.cos(x[2]), np.sin(x[2])
     A = np.array([[1.0, 0.0, -v * s * dt],

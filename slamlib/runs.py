@@ -70,7 +70,7 @@ from .models import (
     wrap_angle,
 )
 from .sensors import AnalyticMarkerSensor, Observations
-from .validate import read_json_file
+from .validate import as_positive, read_json_file
 from .worlds import DATA_DIR, WORLDS_DIR, World, load_world
 
 __all__ = ["Run", "CameraRows", "PredictEvent", "UpdateEvent", "RunFormatError",
@@ -310,10 +310,16 @@ class Run:
         dR = tick_difference(self.ticks_R[1:], self.ticks_R[:-1], bits=self.bits)
         dL = tick_difference(self.ticks_L[1:], self.ticks_L[:-1], bits=self.bits)
         dt = np.diff(self.enc_t)
-        u = np.zeros((dt.shape[0], 2))
-        for k in range(dt.shape[0]):
-            u[k] = wheel_speeds_from_ticks(dR[k], dL[k], dt[k], ticks_per_rev=self.ticks_per_rev,
-                                           radius=self.wheel_radius)
+        bad = np.flatnonzero(~(dt > 0.0))
+        if bad.size:                      # the error wheel_speeds_from_ticks gives
+            wheel_speeds_from_ticks(dR[bad[0]], dL[bad[0]], dt[bad[0]])
+        # wheel_speeds_from_ticks row by row, vectorised: the same operations in the same order
+        n, r = float(self.ticks_per_rev), float(self.wheel_radius)
+        as_positive("ticks_per_rev", n)
+        as_positive("radius", r)
+        k = 2.0 * np.pi * r / (n * dt)
+        u = np.column_stack([k * dR.astype(float), k * dL.astype(float)]) if dt.size else \
+            np.zeros((0, 2))
         return u, dt
 
     def truth_at(self, t) -> np.ndarray:
@@ -358,17 +364,37 @@ class Run:
         """
         if by not in ("capture", "arrival"):
             raise ValueError(f"by: expected 'capture' or 'arrival', got {by!r}")
+        for kind, t, a, b in self._merged_events(by):
+            yield PredictEvent(t, a, b[0], b[1]) if kind == 0 else UpdateEvent(t, a)
+
+    def _merged_events(self, by: str) -> list[tuple]:
+        """The events of :meth:`events` as plain tuples, in the same order (the runners' loop).
+
+        ``(0, t, k, (u_k, dt_k))`` for a prediction, ``(1, t, obs, None)`` for a
+        camera frame; ordered by time, predictions first at equal times, then
+        by index (a stable sort on those three keys).
+        """
+        if by not in ("capture", "arrival"):
+            raise ValueError(f"by: expected 'capture' or 'arrival', got {by!r}")
         u, dt = self.controls()
-        items: list[tuple[float, int, int, object]] = []
-        for k in range(1, self.enc_t.size):
-            items.append((float(self.enc_t[k]), 0, k,
-                          PredictEvent(float(self.enc_t[k]), k, u[k - 1], float(dt[k - 1]))))
-        for j, f in enumerate(self.frames()):
-            t = f.t if by == "capture" else float(f.t_arrival)
-            items.append((t, 1, j, UpdateEvent(t, f)))
-        items.sort(key=lambda e: (e[0], e[1], e[2]))
-        for item in items:
-            yield item[3]
+        frames = self.frames()
+        t_pred = self.enc_t[1:]
+        t_cam = np.array([f.t if by == "capture" else float(f.t_arrival) for f in frames],
+                         dtype=float)
+        t_all = np.concatenate([t_pred, t_cam])
+        kind = np.concatenate([np.zeros(t_pred.size, np.int64), np.ones(t_cam.size, np.int64)])
+        index = np.concatenate([np.arange(t_pred.size), np.arange(t_cam.size)])
+        order = np.lexsort((index, kind, t_all))
+        t_list, dt_list, kind_list, index_list = (t_all.tolist(), dt.tolist(), kind.tolist(),
+                                                  index.tolist())
+        out = []
+        for i in order.tolist():
+            j = index_list[i]
+            if kind_list[i] == 0:
+                out.append((0, t_list[i], j + 1, (u[j], dt_list[j])))
+            else:
+                out.append((1, t_list[i], frames[j], None))
+        return out
 
     def summary(self) -> str:
         """One line: name, world, duration, readings."""

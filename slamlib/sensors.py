@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .models import wrap_angle
+from .models import _wrap_array
 from .validate import as_finite_scalar, as_positive, as_vector
 
 __all__ = ["Observations", "AnalyticMarkerSensor", "CAMERA_OFFSET", "DEFAULT_FOV_HALF_ANGLE",
@@ -107,6 +107,19 @@ def _camera_positions(pose: np.ndarray, offset) -> np.ndarray:
                      pose[1] + s * offset[0] + c * offset[1]])
 
 
+class _Geometry:
+    """A world's marker arrays, computed once (the simulator reads the same world every frame)."""
+
+    __slots__ = ("n", "ids", "positions", "yaws", "normals")
+
+    def __init__(self, world):
+        self.n = len(world.markers)
+        self.ids = world.ids
+        self.positions = world.positions
+        self.yaws = world.yaws
+        self.normals = np.column_stack([np.cos(self.yaws), np.sin(self.yaws)])
+
+
 def visible_markers(world, pose, *, fov_half_angle: float = DEFAULT_FOV_HALF_ANGLE,
                     min_range: float = 0.2, max_range: float = 4.0,
                     max_view_angle: float = math.radians(75.0),
@@ -130,13 +143,19 @@ def visible_markers(world, pose, *, fov_half_angle: float = DEFAULT_FOV_HALF_ANG
     pose = as_vector("pose", pose, 3)
     if len(world.markers) == 0:
         return np.zeros(0, dtype=bool)
+    return _visible(_Geometry(world), pose, fov_half_angle, min_range, max_range,
+                    max_view_angle, camera_offset)
+
+
+def _visible(geo: _Geometry, pose: np.ndarray, fov_half_angle, min_range, max_range,
+             max_view_angle, camera_offset) -> np.ndarray:
+    """:func:`visible_markers` on a checked pose and a non-empty world's arrays."""
     cam = _camera_positions(pose, camera_offset)
-    d = world.positions - cam                      # camera -> marker
+    d = geo.positions - cam                        # camera -> marker
     dist = np.hypot(d[:, 0], d[:, 1])
-    bearing_cam = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
-    normals = np.column_stack([np.cos(world.yaws), np.sin(world.yaws)])
+    bearing_cam = _wrap_array(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
     safe = np.where(dist > 0.0, dist, 1.0)
-    cos_view = -(normals * d).sum(axis=1) / safe   # normal . (camera - marker) / |.|
+    cos_view = -(geo.normals * d).sum(axis=1) / safe   # normal . (camera - marker) / |.|
     return ((np.abs(bearing_cam) < fov_half_angle) & (dist >= min_range)
             & (dist <= max_range) & (dist > 0.0)
             & (cos_view > math.cos(max_view_angle)))
@@ -257,6 +276,17 @@ class AnalyticMarkerSensor:
         rho = as_finite_scalar("rho", rho)
         return np.diag([float(self.sigma_range(max(rho, 0.0))) ** 2, self.sigma_bearing ** 2])
 
+    def R_batch(self, rho) -> np.ndarray:
+        """:meth:`R` of each range in ``rho`` (shape (k,)), stacked: shape (k, 2, 2)."""
+        rho = np.asarray(rho, dtype=float).reshape(-1)
+        if not np.all(np.isfinite(rho)):
+            return np.stack([self.R(r) for r in rho])        # the error R gives
+        out = np.zeros((rho.size, 2, 2))
+        # the same operations as R, element by element (Python's float ** 2)
+        out[:, 0, 0] = [float(s) ** 2 for s in self.sigma_range(np.maximum(rho, 0.0))]
+        out[:, 1, 1] = self.sigma_bearing ** 2
+        return out
+
     def params(self) -> dict:
         """The parameters as a JSON-ready dict (for a run's ``meta.json``)."""
         d = asdict(self)
@@ -297,23 +327,28 @@ class AnalyticMarkerSensor:
         Readings come in the order of ``world.ids``, an outlier (if any) last.
         """
         pose = as_vector("pose", pose, 3)
-        n = len(world.markers)
+        return self._read(_Geometry(world), pose, rng)
+
+    def _read(self, geo: _Geometry, pose: np.ndarray, rng: np.random.Generator) -> Observations:
+        """:meth:`read` on a checked pose and the world's arrays (the simulator's loop)."""
+        n = geo.n
         # Fixed draws: the noise of marker i does not depend on the faults.
         e = rng.standard_normal((n, 2))
         u_fault = rng.random((n, 3))
         u_out = rng.random(5)
-        seen = self.visible(world, pose) if n else np.zeros(0, bool)
+        seen = (_visible(geo, pose, self.fov_half_angle, self.min_range, self.max_range,
+                         self.max_view_angle, self.camera_offset) if n else np.zeros(0, bool))
         idx = np.flatnonzero(seen)
-        ids_true = world.ids[idx] if n else np.zeros(0, np.int64)
-        p = world.positions[idx] if n else np.zeros((0, 2))
+        ids_true = geo.ids[idx] if n else np.zeros(0, np.int64)
+        p = geo.positions[idx] if n else np.zeros((0, 2))
         dx, dy = p[:, 0] - pose[0], p[:, 1] - pose[1]
         rho_t = np.hypot(dx, dy)
-        beta_t = wrap_angle(np.arctan2(dy, dx) - pose[2]) if idx.size else np.zeros(0)
+        beta_t = _wrap_array(np.arctan2(dy, dx) - pose[2]) if idx.size else np.zeros(0)
         rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * e[idx, 0]
         rho = np.maximum(rho, 0.0)
-        beta = wrap_angle(beta_t + self.sigma_bearing * e[idx, 1]) if idx.size else np.zeros(0)
+        beta = _wrap_array(beta_t + self.sigma_bearing * e[idx, 1]) if idx.size else np.zeros(0)
         ids = ids_true.astype(np.int64).copy()
-        world_ids = world.ids.astype(np.int64) if n else np.zeros(0, np.int64)
+        world_ids = geo.ids.astype(np.int64) if n else np.zeros(0, np.int64)
         for j, i in enumerate(idx):
             if u_fault[i, 0] < self.p_misread:
                 ids[j] = self._wrong_id(int(ids_true[j]), world_ids, u_fault[i, 1], u_fault[i, 2])

@@ -34,15 +34,21 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
-from .models import KOBUKI_TICKS_PER_REV, KOBUKI_WHEEL_BASE, KOBUKI_WHEEL_RADIUS, wrap_angle
+from .models import (
+    KOBUKI_TICKS_PER_REV,
+    KOBUKI_WHEEL_BASE,
+    KOBUKI_WHEEL_RADIUS,
+    _wrap_scalar,
+    wrap_angle,
+)
 from .runs import CameraRows, Run
-from .sensors import AnalyticMarkerSensor, Observations
+from .sensors import AnalyticMarkerSensor, Observations, _Geometry
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 from .worlds import World
 
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
            "encoder_counter", "KobukiSim", "simulate", "arena_loop_waypoints", "loop_waypoints",
-           "SCENARIOS", "scenario", "kobuki_params_dict"]
+           "arena_laps_waypoints", "SCENARIOS", "STUDY_SCENARIOS", "scenario", "kobuki_params_dict"]
 
 
 # --------------------------------------------------------------------------- pure pieces
@@ -80,12 +86,12 @@ def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
     if abs(dth) < 1e-9:
         # second-order expansion of the arc (exact to ~1e-27 m here)
         c, s = math.cos(th + 0.5 * dth), math.sin(th + 0.5 * dth)
-        return np.array([x + v * dt * c, y + v * dt * s, wrap_angle(th + dth)])
+        return np.array([x + v * dt * c, y + v * dt * s, _wrap_scalar(th + dth)])
     r = v / w
     th1 = th + dth
     return np.array([x + r * (math.sin(th1) - math.sin(th)),
                      y - r * (math.cos(th1) - math.cos(th)),
-                     wrap_angle(th1)])
+                     _wrap_scalar(th1)])
 
 
 def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_REV,
@@ -225,16 +231,17 @@ class WaypointController:
     def command(self, pose, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
                 ) -> tuple[float, float]:
         """Wheel speed commands ``(V_R, V_L)`` (m/s) for the next ``dt`` seconds."""
-        n = self.waypoints.shape[0]
+        wp = self.waypoints
+        n = wp.shape[0]
+        px, py = pose[0], pose[1]
         while self.index < n:
-            d = self.waypoints[self.index] - pose[:2]
-            if math.hypot(d[0], d[1]) > self.tolerance:
+            if math.hypot(wp[self.index, 0] - px, wp[self.index, 1] - py) > self.tolerance:
                 break
             self.index += 1
         if self.index < n:
-            d = self.waypoints[self.index] - pose[:2]
-            dist = math.hypot(d[0], d[1])
-            e = float(wrap_angle(math.atan2(d[1], d[0]) - pose[2]))
+            dx, dy = wp[self.index, 0] - px, wp[self.index, 1] - py
+            dist = math.hypot(dx, dy)
+            e = float(_wrap_scalar(math.atan2(dy, dx) - pose[2]))
             w_des = max(-self.w_max, min(self.w_max, self.k_heading * e))
             v_des = 0.0 if abs(e) > self.turn_in_place else self.v_max * math.cos(e)
             if self.index == n - 1:                 # final approach: brake in time
@@ -335,6 +342,8 @@ class KobukiSim:
         self.ticks_R = [encoder_counter(0.0, tpr, off[0], bits)]
         self.ticks_L = [encoder_counter(0.0, tpr, off[1], bits)]
         self.frames: list[Observations] = []
+        self._geometry = (_Geometry(world) if isinstance(sensor, AnalyticMarkerSensor)
+                          and type(sensor).read is AnalyticMarkerSensor.read else None)
         self._next_frame = 0            # index j of the next camera frame, at t = j / rate
 
     @property
@@ -343,7 +352,10 @@ class KobukiSim:
         return self.times[-1]
 
     def _capture(self, j: int, p: np.ndarray) -> Observations:
-        obs = self.sensor.read(self.world, p, self._rng_sense)
+        if self._geometry is not None:          # the analytic sensor: the world's arrays once
+            obs = self.sensor._read(self._geometry, p, self._rng_sense)
+        else:
+            obs = self.sensor.read(self.world, p, self._rng_sense)
         t = j / self._rate
         obs.t, obs.t_arrival = t, t + self._latency
         self.frames.append(obs)
@@ -482,6 +494,23 @@ SCENARIOS = {
 }
 
 
+#: Scenarios for studies only (not recorded in ``data/runs``): name -> as :data:`SCENARIOS`.
+STUDY_SCENARIOS = {
+    "arena_laps": ("report_arena", "arena_laps", 1, {},
+                   "The arena loop driven three times (chapter 06): the same waypoints, lap "
+                   "after lap, so the heading uncertainty of the long stretches grows three "
+                   "times as long and the filter closes the loop twice more."),
+}
+
+
+def arena_laps_waypoints(laps: int = 3) -> np.ndarray:
+    """:func:`arena_loop_waypoints` driven ``laps`` times: each further lap goes from the
+    first leg round the post again, and the last one ends like the single loop."""
+    wp = arena_loop_waypoints()
+    lap = np.vstack([wp[8:10], wp[1:8]])                  # back along the first leg, round again
+    return np.vstack([wp[:8]] + [lap] * (int(laps) - 1) + [wp[8:10]])
+
+
 def scenario(name: str, *, seed: int | None = None, sigma_wheel: float | None = None,
              sensor=None, **sensor_overrides) -> Run:
     """Simulate one of the recorded scenarios (:data:`SCENARIOS`), optionally changed.
@@ -492,12 +521,15 @@ def scenario(name: str, *, seed: int | None = None, sigma_wheel: float | None = 
     """
     from .worlds import load_world
 
-    if name not in SCENARIOS:
-        raise ValueError(f"name: expected one of {sorted(SCENARIOS)}, got {name!r}")
-    world_name, path, seed0, overrides, description = SCENARIOS[name]
+    known = {**SCENARIOS, **STUDY_SCENARIOS}
+    if name not in known:
+        raise ValueError(f"name: expected one of {sorted(known)}, got {name!r}")
+    world_name, path, seed0, overrides, description = known[name]
     world = load_world(world_name)
     if path == "arena":
         waypoints = arena_loop_waypoints()
+    elif path == "arena_laps":
+        waypoints = arena_laps_waypoints(3)
     else:
         waypoints = loop_waypoints(world.bounds, margin=1.0)[1:]
     if sensor is None:

@@ -1,0 +1,160 @@
+"""First-Estimates-Jacobian and ideal EKF SLAM (issue 9, point 2; chapter 06)."""
+
+from __future__ import annotations
+
+import numpy as np
+import pytest
+
+from slamlib import experiments as ex
+from slamlib import sim
+from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM, predict_readings
+from slamlib.models import motion_model, observe
+
+Q = np.diag([0.05, 0.05]) ** 2
+R = np.diag([0.03, np.radians(1.0)]) ** 2
+LANDMARKS = {1: np.array([2.0, 0.5]), 2: np.array([1.0, -1.5]), 3: np.array([-0.5, 1.0])}
+
+
+def _drive(filt, steps=60, seed=0):
+    """Predict at 50 Hz, update with the three landmarks every 5th step (noisy readings)."""
+    rng = np.random.default_rng(seed)
+    truth = np.array([0.0, 0.0, 0.1])
+    states = []
+    for k in range(steps):
+        u = np.array([0.22, 0.25])
+        truth = motion_model(truth, u + rng.normal(0, 0.05, 2), 0.02)
+        filt.predict(u, 0.02)
+        states.append(("predict", filt.pose))
+        if k % 5 == 4:
+            ids = np.array(sorted(LANDMARKS))
+            z = np.array([observe(truth, LANDMARKS[i]) for i in ids])
+            z += rng.normal(0, [0.03, np.radians(1.0)], z.shape)
+            filt.update(ids, z)
+            states.append(("update", filt.pose))
+    return states
+
+
+def _corner(A):
+    return np.array([A[0, 2], A[1, 2]])
+
+
+def test_fej_motion_jacobians_chain_over_an_interval_with_updates():
+    f = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
+    As, props = [], [f.propagated_pose]
+    orig = f._predict_cov
+
+    def spy(A, W):
+        As.append(A.copy())
+        orig(A, W)
+
+    f._predict_cov = spy
+    rng = np.random.default_rng(1)
+    for k in range(40):
+        f.predict(np.array([0.2, 0.26]), 0.02)
+        props.append(f.propagated_pose)
+        if k % 5 == 4:
+            ids = np.array(sorted(LANDMARKS))
+            z = np.array([observe(f.pose, LANDMARKS[i]) for i in ids]) + rng.normal(0, 0.05, (3, 2))
+            f.update(ids, z)
+    # the product over steps a..b-1 is the A of the whole interval: x_{b|b-1} - x_{a|a-1}
+    for a, b in [(0, 40), (3, 17), (4, 5), (9, 31)]:
+        prod = np.eye(3)
+        for A in As[a:b]:
+            prod = A @ prod
+        d = props[b] - props[a]
+        whole = np.array([[1.0, 0.0, -d[1]], [0.0, 1.0, d[0]], [0.0, 0.0, 1.0]])
+        assert np.allclose(prod, whole, atol=1e-12), (a, b)
+
+
+def test_standard_motion_jacobians_do_not_chain_after_updates():
+    f = EKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
+    As, poses = [], [f.pose]
+    orig = f._predict_cov
+
+    def spy(A, W):
+        As.append(A.copy())
+        orig(A, W)
+
+    f._predict_cov = spy
+    rng = np.random.default_rng(1)
+    props = [f.pose]
+    for k in range(40):
+        f.predict(np.array([0.2, 0.26]), 0.02)
+        props.append(f.pose)
+        if k % 5 == 4:
+            ids = np.array(sorted(LANDMARKS))
+            z = np.array([observe(f.pose, LANDMARKS[i]) for i in ids]) + rng.normal(0, 0.05, (3, 2))
+            f.update(ids, z)
+        poses.append(f.pose)
+    prod = np.eye(3)
+    for A in As:
+        prod = A @ prod
+    d = props[-1] - props[0]
+    assert abs(prod[0, 2] + d[1]) + abs(prod[1, 2] - d[0]) > 1e-4   # the updates broke the chain
+
+
+def test_fej_observation_jacobians_at_first_estimates_by_finite_differences():
+    f = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-4, Q, R)
+    _drive(f, steps=30)
+    seen = {}
+    base = EKFSLAM._fuse
+
+    def record(self, slots, Hp, Hl, y, R_):
+        seen["slots"], seen["Hp"], seen["Hl"] = slots.copy(), Hp.copy(), Hl.copy()
+        return base(self, slots, Hp, Hl, y, R_)
+
+    EKFSLAM._fuse = record
+    try:
+        f.predict(np.array([0.2, 0.2]), 0.02)
+        pose = f.propagated_pose
+        ids = np.array(sorted(LANDMARKS))
+        f.update(ids, np.array([observe(pose, LANDMARKS[i]) for i in ids]))
+    finally:
+        EKFSLAM._fuse = base
+    eps = 1e-6
+    for j, mid in enumerate(ids):
+        m0 = f.first_estimate(mid)
+        assert not np.allclose(m0, f.landmark(mid))          # the estimate has moved since
+        Hp_fd = np.column_stack([(observe(pose + eps * e, m0) - observe(pose - eps * e, m0))
+                                 / (2 * eps) for e in np.eye(3)])
+        Hl_fd = np.column_stack([(observe(pose, m0 + eps * e) - observe(pose, m0 - eps * e))
+                                 / (2 * eps) for e in np.eye(2)])
+        assert np.allclose(seen["Hp"][j], Hp_fd, atol=1e-6)
+        assert np.allclose(seen["Hl"][j], Hl_fd, atol=1e-6)
+        _, Hp_now, _ = predict_readings(pose, f.landmark(mid)[None, :])
+        assert not np.allclose(seen["Hp"][j], Hp_now[0], atol=1e-6)
+
+
+def test_fej_means_move_like_ekf_slam_until_the_jacobians_differ():
+    a = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
+    b = EKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
+    for _ in range(10):                                       # no update: same A, same P
+        a.predict(np.array([0.2, 0.25]), 0.02)
+        b.predict(np.array([0.2, 0.25]), 0.02)
+    assert np.allclose(a.P, b.P, rtol=1e-12, atol=1e-18) and np.array_equal(a.x, b.x)
+    rep = a.update([7], [[1.0, 0.2]])
+    assert rep.new[0] and a.landmark_ids == [7]
+
+
+def test_ideal_jacobians_are_the_truths():
+    run = sim.scenario("arena_loop", seed=3)
+    truth = ex.truth_function(run)
+    f = IdealEKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0),
+                     truth=truth, landmarks=run.world().landmarks())
+    As = []
+    orig = f._predict_cov
+    f._predict_cov = lambda A, W: (As.append(A.copy()), orig(A, W))
+    u, dt = run.controls()
+    for k in range(20):
+        f.predict(u[k], float(dt[k]))
+    d = run.truth[20] - run.truth[0]
+    prod = np.eye(3)
+    for A in As:
+        prod = A @ prod
+    assert np.allclose(prod[:2, 2], [-d[1], d[0]], atol=1e-12)
+    assert abs(f.t - run.enc_t[20]) < 1e-9
+    assert np.array_equal(truth(run.enc_t[20]), run.truth[20])
+    assert np.allclose(truth(0.011), run.truth_at(0.011), atol=1e-12)
+    with pytest.raises(ValueError, match="truth"):
+        IdealEKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0), truth=None,
+                     landmarks={})

@@ -1,0 +1,58 @@
+"""The filter runners never fall back silently to a default reading noise (issue 9, point 7)."""
+
+from __future__ import annotations
+
+import copy
+
+import numpy as np
+import pytest
+
+from slamlib import experiments as ex
+from slamlib import sim
+from slamlib.vision import NoiseModel
+
+
+@pytest.fixture(scope="module")
+def run():
+    return sim.scenario("arena_loop", seed=2)
+
+
+def _with_sensor(run, meta_sensor):
+    r = copy.copy(run)
+    r.meta = {**run.meta, "sensor": meta_sensor}
+    return r
+
+
+@pytest.mark.parametrize("runner", [ex.slam, ex.localization, ex.fej_slam])
+def test_unknown_sensor_with_readings_raises_saying_what_to_pass(run, runner):
+    r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
+    with pytest.raises(ValueError, match=r"R: run .*SomeoneElsesSensor.*pass R="):
+        runner(r)
+
+
+def test_unknown_sensor_with_an_explicit_R_runs_and_uses_it(run):
+    r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
+    R = np.diag([0.03, 0.01]) ** 2
+    tr = ex.slam(r, R=R)
+    assert np.array_equal(tr.filter.R, R)
+    assert np.array_equal(ex.slam(run, R=R).x, tr.x)        # the same as the analytic run with R
+
+
+def test_camera_runs_take_the_noise_model_they_were_recorded_with(run):
+    nm = {"bias_coef": 0.004, "bias_coef3": 0.0, "sigma_range_a": 0.004,
+          "sigma_range_b": 0.002, "sigma_bearing": 0.0005, "corrected": True}
+    r = _with_sensor(run, {"type": "CameraMarkerSensor", "noise_model": nm})
+    model = NoiseModel(**nm)
+    assert np.array_equal(ex._R(r), model.R(2.0))
+    tr = ex.run_filter(r, ex.EKFSLAM(r.start_pose, ex.DEFAULT_P0, r.Q(), ex._R(r)), until=20.0)
+    p = tr.pending
+    assert np.array_equal(p.R, np.stack([model.R(rho) for rho in p.obs.z[:, 0]]))
+
+
+def test_dead_reckoning_and_runs_without_readings_need_no_R(run):
+    r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
+    assert np.array_equal(ex.dead_reckoning(r).x, ex.dead_reckoning(run).x)
+    quiet = sim.scenario("arena_loop", seed=2, max_range=0.21, min_range=0.2)
+    quiet = _with_sensor(quiet, {})
+    assert len(quiet.camera) == 0
+    assert ex.slam(quiet).filter.n_landmarks == 0
