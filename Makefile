@@ -44,6 +44,11 @@ student: $(STAMP)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
 
+## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit)
+.PHONY: association-study
+association-study: $(STAMP)
+	$(PY) -m slamlib.course.association_study
+
 ## Open the course in JupyterLab on localhost
 lab: $(STAMP)
 	$(VENV)/bin/jupyter lab --ip=127.0.0.1 notebooks
@@ -52,6 +57,7 @@ lab: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_ekf.py
 	$(PY) bench/bench_vision.py
+	$(PY) bench/bench_association.py
 
 clean:
 	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache

@@ -406,6 +406,9 @@ class _EKFBase:
         #: chi2.ppf(new_gate, 2) (13.8 for 0.999): between the gate and this, it is rejected
         #: (a true reading falls outside a 0.95 gate one time in twenty; chapter 09).
         self.new_gate = 0.999
+        #: Without ids, what the last update's association saw: ``"in_gate"`` (k,), the number
+        #: of landmarks inside each reading's gate, and ``"jcbb"``, JCBB's JCBBResult (or None).
+        self.last_association: dict = {}
         x0 = as_vector("x0", x0, 3).copy()
         P0 = as_covariance("P0", P0, 3)
         self.Q = as_covariance("Q", Q, 2)
@@ -648,6 +651,7 @@ class _EKFBase:
 
         keys = list(self.landmark_ids)
         found = [self._lookup(m) for m in keys]
+        self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None}
         status = ["rejected"] * k
         matched = np.full(k, -1, dtype=np.int64)
         d2 = np.full(k, np.nan)
@@ -673,6 +677,7 @@ class _EKFBase:
             D2 = individual_d2(y, S)
             inside = D2 < self.threshold
             outside = np.all(D2 >= gate_threshold(max(self.new_gate, self.gate)), axis=1)
+            self.last_association["in_gate"] = np.count_nonzero(inside, axis=1)
             if self.association == "nn":
                 a = nearest_neighbour(D2, self.threshold)
             else:
@@ -682,6 +687,7 @@ class _EKFBase:
                     C = self._predicted_readings_cov(slots[cand], Hp[cand], Hl[cand])
                     res = jcbb(y[:, cand], D2[:, cand], C, Rk, self.gate,
                                max_nodes=self.max_nodes)
+                    self.last_association["jcbb"] = res
                     paired = res.assignment >= 0
                     a[paired] = cand[res.assignment[paired]]
             near = np.where(a >= 0, a, np.argmin(D2, axis=1))

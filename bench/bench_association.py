@@ -1,0 +1,91 @@
+"""Benchmark: per-frame association time without ids, NN and JCBB (prints numbers only).
+
+For maps of N = 10, 100 and 1000 landmarks (uniform in a 20 m x 20 m square,
+so that denser maps put more landmarks in each reading's gate) and frames of
+k = 2, 4, 8 and 16 readings of the landmarks nearest the robot, times one
+``update(None, z)`` of :class:`slamlib.ekf.EKFSLAM` with ``association="nn"``
+and ``"jcbb"``, next to the same update with the ids given
+(``association="ids"``, the look-up: the baseline, in the same process). The
+difference is the association's cost. Also printed: the mean number of
+landmarks inside a reading's gate, and the nodes JCBB visited.
+
+Each time is the minimum over several repeats of a loop long enough to be
+timed (as ``timeit`` does). Run: ``python bench/bench_association.py [--quick]``.
+Numbers, never pass/fail.
+"""
+
+from __future__ import annotations
+
+import argparse
+import platform
+import timeit
+
+import numpy as np
+
+from slamlib.ekf import EKFSLAM
+from slamlib.models import observe
+
+Q = np.diag([0.02, 0.02]) ** 2
+R = np.diag([0.03, np.radians(1.0)]) ** 2
+P0 = np.diag([0.05**2, 0.05**2, np.radians(1.0) ** 2])   # the pose uncertain: wide gates
+
+
+def build(n_landmarks: int, association: str, seed: int = 0):
+    """A filter that mapped N landmarks from the start pose, and their true positions."""
+    rng = np.random.default_rng(seed)
+    L = rng.uniform(-10.0, 10.0, (n_landmarks, 2))
+    x0 = np.zeros(3)
+    f = EKFSLAM(x0, P0, Q, R, capacity=n_landmarks, association=association)
+    z = np.array([observe(x0, p) for p in L]) + rng.normal(0.0, [0.03, 0.017], (n_landmarks, 2))
+    f.update(None if association != "ids" else np.arange(n_landmarks), z)
+    for _ in range(10):
+        f.predict([0.0, 0.0], 0.1)
+    return f, L
+
+
+def frame(L: np.ndarray, k: int, seed: int = 1):
+    """k readings of the landmarks nearest the robot (true pose at the origin)."""
+    rng = np.random.default_rng(seed)
+    near = np.argsort(np.hypot(L[:, 0], L[:, 1]))[:k]
+    z = np.array([observe(np.zeros(3), L[j]) for j in near])
+    return near, z + rng.normal(0.0, [0.03, 0.017], (k, 2))
+
+
+def best_time(fn, repeat: int) -> float:
+    t = timeit.Timer(fn)
+    n, _ = t.autorange()
+    return min(t.repeat(repeat=repeat, number=n)) / n
+
+
+def main() -> None:
+    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    ap.add_argument("--quick", action="store_true", help="fewer sizes and repeats")
+    args = ap.parse_args()
+    sizes = (10, 100) if args.quick else (10, 100, 1000)
+    ks = (2, 4, 8) if args.quick else (2, 4, 8, 16)
+    repeat = 2 if args.quick else 3
+    print(f"association per frame, update(None, z) vs update(ids, z); numpy {np.__version__}, "
+          f"{platform.processor() or platform.machine()}")
+    print(f"{'N':>5} {'k':>3} {'in gate':>8} {'ids ms':>8} {'nn ms':>8} {'jcbb ms':>8} "
+          f"{'nn-ids':>8} {'jcbb-ids':>9} {'nodes':>6}")
+    for N in sizes:
+        filt = {m: build(N, m)[0] for m in ("ids", "nn", "jcbb")}
+        L = build(N, "ids")[1]
+        for k in ks:
+            if k > N:
+                continue
+            near, z = frame(L, k)
+            times = {}
+            for m, f in filt.items():
+                ids = near if m == "ids" else None
+                times[m] = 1e3 * best_time(lambda f=f, ids=ids, z=z: f.update(ids, z), repeat)
+            in_gate = float(np.mean(filt["nn"].last_association["in_gate"]))
+            res = filt["jcbb"].last_association["jcbb"]
+            nodes = 0 if res is None else res.nodes
+            print(f"{N:>5} {k:>3} {in_gate:>8.2f} {times['ids']:>8.3f} {times['nn']:>8.3f} "
+                  f"{times['jcbb']:>8.3f} {times['nn'] - times['ids']:>8.3f} "
+                  f"{times['jcbb'] - times['ids']:>9.3f} {nodes:>6d}")
+
+
+if __name__ == "__main__":
+    main()
