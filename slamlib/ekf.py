@@ -36,6 +36,9 @@ What an update does, in order (report V.C, corrected)
    are reported with ``status == "duplicate"``, ``new`` False, ``accepted``
    False and ``d2`` NaN (they are not used: fusing them against a landmark
    that was initialised from the same image would count that image twice).
+   Without ids (``association="nn"`` or ``"jcbb"``, ``update(None, z)``,
+   chapter 09) the filter pairs the readings itself with
+   :mod:`slamlib.association`; see :meth:`_EKFBase._update_without_ids`.
 2. **Gating, each reading on its own, against the prior.** For each reading
    of an already-mapped id, with the predicted observation ``h`` and its
    Jacobian ``H_i`` at the prior (predicted) state::
@@ -406,8 +409,9 @@ class _EKFBase:
         #: chi2.ppf(new_gate, 2) (13.8 for 0.999): between the gate and this, it is rejected
         #: (a true reading falls outside a 0.95 gate one time in twenty; chapter 09).
         self.new_gate = 0.999
-        #: Without ids, what the last update's association saw: ``"in_gate"`` (k,), the number
-        #: of landmarks inside each reading's gate, and ``"jcbb"``, JCBB's JCBBResult (or None).
+        #: Without ids, what the last update's association saw: ``"d2"`` (k, N), every reading's
+        #: d2 to every landmark in ``landmark_ids`` order (NaN: degenerate), ``"in_gate"`` (k,),
+        #: the landmarks inside each reading's gate, ``"jcbb"``, JCBB's JCBBResult (or None).
         self.last_association: dict = {}
         x0 = as_vector("x0", x0, 3).copy()
         P0 = as_covariance("P0", P0, 3)
@@ -651,7 +655,8 @@ class _EKFBase:
 
         keys = list(self.landmark_ids)
         found = [self._lookup(m) for m in keys]
-        self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None}
+        self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None,
+                                 "d2": np.full((k, len(keys)), np.nan)}
         status = ["rejected"] * k
         matched = np.full(k, -1, dtype=np.int64)
         d2 = np.full(k, np.nan)
@@ -678,6 +683,7 @@ class _EKFBase:
             inside = D2 < self.threshold
             outside = np.all(D2 >= gate_threshold(max(self.new_gate, self.gate)), axis=1)
             self.last_association["in_gate"] = np.count_nonzero(inside, axis=1)
+            self.last_association["d2"][:, cols] = D2
             if self.association == "nn":
                 a = nearest_neighbour(D2, self.threshold)
             else:

@@ -304,3 +304,16 @@ def test_clutter_never_enters_the_map_as_a_confirmed_landmark():
     # the scenario is a test: without confirmation the same clutter does enter the map
     tr, tid = run_without_ids(run, make_filter(run, "nn", confirmed=False), max_time=30.0)
     assert association_errors(tr, tid).clutter_landmarks > 10
+
+
+def test_stored_study_is_regenerated_by_the_code():
+    # data/studies/association_study.json is written by `make association-study`; recompute a
+    # sample (two seeds, every method) and compare row for row
+    from slamlib.course.association_study import load_study, study_row
+
+    settings, rows = load_study()
+    assert len(rows) == len(settings["seeds"]) * len(settings["methods"]) >= 300
+    for seed in (settings["seeds"][0], settings["seeds"][37]):
+        for m in settings["methods"]:
+            stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
+            assert study_row(seed, m, settings) == stored

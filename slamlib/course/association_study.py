@@ -28,7 +28,8 @@ from ..metrics import ate
 from ..runs import Run
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
-           "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS"]
+           "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
+           "crowded_frame"]
 
 #: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
 STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
@@ -82,14 +83,20 @@ def run_without_ids(run: Run, filt, *, max_time: float | None = None):
 class AssociationScore:
     """How one run's readings were associated.
 
+    A landmark is *labelled* with the true marker that most of its readings
+    (the one that started it and those fused into it) came from; a fused
+    reading is *wrong* when its true marker is not its landmark's label. (A
+    landmark started by marker 31 and fed marker 21 for the rest of the run is
+    marker 21's landmark: its first reading counts as the wrong one.)
+
     Attributes
     ----------
     readings : int
         Readings of real markers (clutter excluded).
     fused : int
-        Readings fused into a landmark.
+        Readings of real markers fused into a landmark.
     wrong : int
-        Fused readings whose landmark was started by another marker (or by clutter).
+        Of those, readings whose landmark's label is another marker (or clutter).
     rejected : int
         Readings of real markers not used (rejected, candidate, duplicate).
     clutter : int
@@ -99,9 +106,11 @@ class AssociationScore:
     clutter_landmarks : int
         Landmarks of the final map started by a clutter reading.
     duplicates : int
-        Landmarks of the final map started by a marker that already had one.
+        Landmarks of the final map whose label is a marker that labels another one too.
     origin : dict
         Map id -> the true marker whose reading started it (-1: clutter).
+    label : dict
+        Map id -> the true marker most of its readings came from.
     """
 
     readings: int
@@ -113,6 +122,7 @@ class AssociationScore:
     clutter_landmarks: int
     duplicates: int
     origin: dict
+    label: dict
 
     @property
     def wrong_rate(self) -> float:
@@ -123,27 +133,36 @@ class AssociationScore:
 def association_errors(trace, true_ids) -> AssociationScore:
     """Score ``trace`` (from :func:`run_without_ids`) against the true ids of its readings."""
     origin: dict[int, int] = {}
+    votes: dict[int, dict[int, int]] = {}
+    for (_, rep), tid in zip(trace.reports, true_ids):
+        for i, t in enumerate(tid):
+            m = int(rep.matched[i])
+            if rep.new[i]:
+                origin[m] = int(t)
+            if rep.new[i] or rep.accepted[i]:
+                v = votes.setdefault(m, {})
+                v[int(t)] = v.get(int(t), 0) + 1
+    # the majority; a tie goes to the marker that started the landmark, then to the lower id
+    label = {m: max(v, key=lambda t, m=m: (v[t], t == origin.get(m), -t))
+             for m, v in votes.items()}
     readings = fused = wrong = rejected = clutter = clutter_fused = 0
     for (_, rep), tid in zip(trace.reports, true_ids):
         for i, t in enumerate(tid):
             t = int(t)
-            m = int(rep.matched[i])
             clutter += t < 0
             readings += t >= 0
-            if rep.new[i]:
-                origin[m] = t
-            elif rep.accepted[i]:
+            if rep.accepted[i] and not rep.new[i]:
                 if t < 0:
                     clutter_fused += 1
                     continue
                 fused += 1
-                wrong += origin.get(m, m) != t          # with ids, a landmark is its marker
-            elif t >= 0:
+                wrong += label[int(rep.matched[i])] != t
+            elif t >= 0 and not rep.new[i]:
                 rejected += 1
-    started = list(origin.values())
-    dup = sum(started.count(t) - 1 for t in set(started) if t >= 0)
+    labels = list(label.values())
+    dup = sum(labels.count(t) - 1 for t in set(labels) if t >= 0)
     return AssociationScore(readings, fused, wrong, rejected, clutter, clutter_fused,
-                            started.count(-1), dup, origin)
+                            list(origin.values()).count(-1), dup, origin, label)
 
 
 def study_row(seed: int, method: str, settings: dict = STUDY_SETTINGS) -> dict:
@@ -196,3 +215,26 @@ if __name__ == "__main__":  # python -m slamlib.course.association_study [OUT.js
     out = Path(sys.argv[1]) if len(sys.argv) > 1 else STUDY_PATH
     save_study(study(), out)
     print(f"wrote {out}")
+
+
+def crowded_frame(k: int, spacing: float, clutter: float = 0.0, seed: int = 0):
+    """A known map of k landmarks in two staggered rows ``spacing`` apart, a filter on it
+    (``EKFLocalization``, JCBB, pose sigma 0.1 m and 2 deg) and one frame of k readings, a
+    fraction ``clutter`` of which are spurious readings near random landmarks (chapter 09's
+    cost of JCBB). Returns ``(filter, z)``."""
+    from ..ekf import EKFLocalization
+    from ..models import observe
+
+    Q = np.diag([1e-4, 1e-4])
+    R = np.diag([0.02**2, np.radians(1.0) ** 2])
+    lm = {j: np.array([2.0 + 0.3 * (j % 2), -0.5 * spacing * (k - 1) + spacing * j])
+          for j in range(k)}
+    P0 = np.diag([0.1**2, 0.1**2, np.radians(2.0) ** 2])
+    f = EKFLocalization(np.zeros(3), P0, Q, R, lm, association="jcbb")
+    true = np.array([0.03, 0.05, 0.01])
+    rng = np.random.default_rng(seed)
+    seen = rng.permutation(k)[:int(round(k * (1.0 - clutter)))]
+    z = [observe(true, lm[j]) + rng.normal(0.0, [0.02, 0.017]) for j in seen]
+    z += [observe(true, lm[int(rng.integers(k))] + rng.normal(0.0, 0.06, 2))
+          for _ in range(k - len(seen))]
+    return f, np.array(z)
