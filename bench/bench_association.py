@@ -13,7 +13,10 @@ Each time is the minimum over several repeats, each on a fresh copy of the
 filter (an update shrinks the gates). The filters' pose has drifted (large Q)
 so that gates are wide and, in the denser maps, hold several landmarks.
 Run: ``python bench/bench_association.py [--quick]``.
-Numbers, never pass/fail.
+Numbers, never pass/fail. On a small shared machine, OpenBLAS's threads make the
+joint update (the same for all three) slow and noisy from N = 100 and k = 8
+on; ``OPENBLAS_NUM_THREADS=1 python bench/bench_association.py`` shows the
+single-thread times (as ``bench_ekf.py --blas-threads 1``).
 """
 
 from __future__ import annotations
