@@ -62,6 +62,11 @@ runs: $(STAMP)
 studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
+## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit)
+.PHONY: association-study
+association-study: $(STAMP)
+	$(PY) -m slamlib.course.association_study
+
 ## Open the course in JupyterLab on 127.0.0.1:8888 with a token (as root too, e.g. in a container)
 lab: $(STAMP)
 	$(VENV)/bin/jupyter lab --ip=127.0.0.1 --port=8888 --no-browser \
@@ -72,6 +77,7 @@ bench: $(STAMP)
 	$(PY) bench/bench_ekf.py
 	$(PY) bench/bench_vision.py
 	env -u MPLBACKEND $(PY) bench/bench_monte_carlo.py --chapters
+	$(PY) bench/bench_association.py
 
 clean:
 	rm -rf $(VENV) figures student book/_build .notebooks-failed .pytest_cache .hypothesis .ruff_cache

@@ -17,6 +17,7 @@ One module per idea:
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
 - ``experiments``  a filter driven over a run, with its trace
 - ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)
+- ``association``  readings without ids: individual compatibility, nearest neighbour, JCBB (ch. 09)
 - ``studies``      Monte-Carlo NEES, marker-density and re-observation studies (chapter 06)
 - ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)

@@ -19,6 +19,15 @@ against the prior, one joint update); a confirmed id is then added by
 :meth:`EKFSLAM.update` from the updated pose and the confirming reading, as
 plain EKF SLAM would have added it. A held reading gets the status
 ``"candidate"``.
+
+Without ids (``association="nn"`` or ``"jcbb"``, ``update(None, z)``, chapter
+09) the same idea keeps clutter out of the map: a reading outside every
+landmark's gate is compared with the candidates of the last ``max_gap`` frames
+(same test as above; the closest consistent one, each candidate at most once
+per frame); it confirms that candidate, or starts a new one. A confirmed
+candidate enters the map under a name the filter gives (``max(ids) + 1``).
+Candidates not seen again within ``max_gap`` frames are dropped: a one-off
+clutter reading never enters the map.
 """
 
 from __future__ import annotations
@@ -84,8 +93,9 @@ class ConfirmedSLAM(EKFSLAM):
 
     def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
                  gate: float | None = 0.95, capacity: int = 16, *, n_confirm: int = 2,
-                 max_gap: int = 2, confirm: float = 0.95):
-        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+                 max_gap: int = 2, confirm: float = 0.95, association: str = "ids"):
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity,
+                         association=association)
         self.n_confirm = _positive_int("n_confirm", n_confirm, 1)
         self.max_gap = _positive_int("max_gap", max_gap, 1)
         if not 0.0 < confirm < 1.0:
@@ -93,6 +103,52 @@ class ConfirmedSLAM(EKFSLAM):
         self.confirm_threshold = gate_threshold(confirm)
         self.candidates: dict[int, Candidate] = {}
         self.frame = 0
+        self._next_candidate = 0        # names of the candidates without ids
+
+    def _sighting(self, pose, P_rr, z, R) -> tuple[np.ndarray, np.ndarray]:
+        """Position of a sighting and its covariance ``J1 P_rr J1^T + J2 R J2^T``."""
+        m = inverse_observe(pose, z)
+        J1, J2 = inverse_observation_jacobians(pose, z)
+        return m, J1 @ P_rr @ J1.T + J2 @ R @ J2.T
+
+    def _consistency(self, prev: Candidate, m, C) -> float:
+        """``d2`` between a sighting and a candidate; inf when the candidate is too old."""
+        if self.frame - prev.frame > self.max_gap:
+            return float("inf")
+        return float(mahalanobis2(m - prev.position, C + prev.cov))
+
+    def _unmatched(self, readings, z, R):
+        """Without ids: each reading outside every gate confirms a candidate or starts one."""
+        for key in [c for c, prev in self.candidates.items()
+                    if self.frame - prev.frame > self.max_gap]:
+            del self.candidates[key]                                 # not seen again: dropped
+        pose, P_rr = self.pose, self.pose_cov
+        sightings = [self._sighting(pose, P_rr, z[i], R[i]) for i in readings]
+        keys = [c for c, prev in self.candidates.items() if prev.frame < self.frame]
+        # pairs (reading, candidate) that pass the test, closest first, each used once
+        pairs = sorted((self._consistency(self.candidates[c], m, C), q, c)
+                       for q, (m, C) in enumerate(sightings) for c in keys)
+        match: dict[int, int] = {}
+        taken = set()
+        for d2, q, c in pairs:
+            if d2 < self.confirm_threshold and q not in match and c not in taken:
+                match[q] = c
+                taken.add(c)
+        out = []
+        for q, i in enumerate(readings):
+            m, C = sightings[q]
+            n = 1
+            if q in match:
+                n = self.candidates.pop(match[q]).sightings + 1
+            if n >= self.n_confirm:
+                mid = max(self._ids) + 1 if self._ids else 0
+                self._add_landmark(mid, z[i], R[i])
+                out.append(("new", mid))
+            else:
+                self.candidates[self._next_candidate] = Candidate(m, C, n, self.frame)
+                self._next_candidate += 1
+                out.append(("candidate", None))
+        return out
 
     def update(self, ids, z, R=None) -> UpdateReport:
         """:meth:`EKFSLAM.update` for mapped ids; new ids become candidates, then landmarks.
@@ -102,6 +158,14 @@ class ConfirmedSLAM(EKFSLAM):
         added) by this reading, ``"candidate"`` for one held back, ``"duplicate"``
         for a second reading of an unmapped id in the same call.
         """
+        if ids is None or self.association != "ids":                 # chapter 09: no ids
+            frame = self.frame
+            self.frame += 1
+            try:
+                return super().update(ids, z, R)
+            except ValueError:
+                self.frame = frame                                   # unchanged after an error
+                raise
         ids = _as_ids(ids)                                           # the base class's checks
         z = _as_readings(z, ids.shape[0])
         Rk = _as_reading_noise(R, self.R, ids.shape[0])
@@ -118,13 +182,10 @@ class ConfirmedSLAM(EKFSLAM):
                 status[i] = "duplicate"
                 continue
             seen.add(mid)
-            m = inverse_observe(pose, z[i])
-            J1, J2 = inverse_observation_jacobians(pose, z[i])
-            C = J1 @ P_rr @ J1.T + J2 @ Rk[i] @ J2.T
+            m, C = self._sighting(pose, P_rr, z[i], Rk[i])
             n = 1
             prev = self.candidates.get(mid)
-            if (prev is not None and self.frame - prev.frame <= self.max_gap
-                    and mahalanobis2(m - prev.position, C + prev.cov) < self.confirm_threshold):
+            if prev is not None and self._consistency(prev, m, C) < self.confirm_threshold:
                 n = prev.sightings + 1                               # consistent: one more
             if n >= self.n_confirm:
                 confirmed.append(i)
@@ -142,6 +203,7 @@ class ConfirmedSLAM(EKFSLAM):
 
         return dataclasses.replace(
             first, ids=ids, z=z, status=tuple(str(s) for s in status), new=status == "new",
+            matched=None,
             accepted=spread(first.accepted, False), d2=spread(first.d2, np.nan),
             innovation=spread(first.innovation, np.nan),
             predicted=spread(first.predicted, np.nan), S=spread(first.S, np.nan))

@@ -36,6 +36,9 @@ What an update does, in order (report V.C, corrected)
    are reported with ``status == "duplicate"``, ``new`` False, ``accepted``
    False and ``d2`` NaN (they are not used: fusing them against a landmark
    that was initialised from the same image would count that image twice).
+   Without ids (``association="nn"`` or ``"jcbb"``, ``update(None, z)``,
+   chapter 09) the filter pairs the readings itself with
+   :mod:`slamlib.association`; see :meth:`_EKFBase._update_without_ids`.
 2. **Gating, each reading on its own, against the prior.** For each reading
    of an already-mapped id, with the predicted observation ``h`` and its
    Jacobian ``H_i`` at the prior (predicted) state::
@@ -104,6 +107,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour, pair_covariance
 from .models import (
     KOBUKI_WHEEL_BASE,
     _check_motion_args,
@@ -146,6 +150,34 @@ def _check_gate(gate):
     if not 0.0 < g < 1.0:
         raise ValueError(f"gate: expected a probability in (0, 1) or None, got {g}")
     return g
+
+
+#: The association methods of the filters (chapter 09; ``"ids"`` is chapters 03-05's look-up).
+ASSOCIATIONS = ("ids", "nn", "jcbb")
+
+
+def _check_association(association, gate):
+    if association not in ASSOCIATIONS:
+        raise ValueError(f"association: expected one of {ASSOCIATIONS}, got {association!r}")
+    if association != "ids" and gate is None:
+        raise ValueError(f"gate: association={association!r} needs a gate probability (e.g. "
+                         f"0.95), not None: without a gate every reading would match a landmark")
+    return association
+
+
+def _count_readings(z) -> int:
+    """Number of rows of z (readings without ids), for :func:`_as_readings`."""
+    try:
+        a = np.asarray(z, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
+    if a.ndim == 2:
+        return a.shape[0]
+    if a.shape == (2,):
+        return 1
+    if a.size == 0:
+        return 0
+    raise ValueError(f"z: expected shape (k, 2), got {a.shape}")
 
 
 def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -241,6 +273,11 @@ class UpdateReport:
     joint_nis : float
         ``y^T S^-1 y`` of the joint update (2m degrees of freedom, m = number
         accepted), NaN when nothing was fused: the NIS of chapter 03.
+    matched : numpy.ndarray of int, shape (k,)
+        The map id each reading was fused into or added as; -1 when it was not
+        used (rejected, duplicate, unknown, degenerate, candidate). With ids it
+        is ``ids`` where accepted or new (computed when not given); without ids
+        (``update(None, z)``, chapter 09) it is the association's answer.
     """
 
     ids: np.ndarray
@@ -255,6 +292,13 @@ class UpdateReport:
     threshold: float
     gate: float | None
     joint_nis: float
+    matched: np.ndarray | None = None
+
+    def __post_init__(self):
+        if self.matched is None:
+            used = np.asarray(self.accepted, dtype=bool) | np.asarray(self.new, dtype=bool)
+            object.__setattr__(self, "matched",
+                               np.where(used, np.asarray(self.ids, dtype=np.int64), -1))
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -382,7 +426,18 @@ class _EKFBase:
     _can_add = False  # EKFSLAM adds unknown ids to the state
 
     def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
-                 gate: float | None = 0.95, capacity: int = 0):
+                 gate: float | None = 0.95, capacity: int = 0, association: str = "ids"):
+        self.association = _check_association(association, gate)
+        #: JCBB's bound on the nodes searched per frame (chapter 09; see slamlib.association).
+        self.max_nodes = DEFAULT_MAX_NODES
+        #: Without ids, a reading is new only if its d2 to every landmark is at least
+        #: chi2.ppf(new_gate, 2) (13.8 for 0.999): between the gate and this, it is rejected
+        #: (a true reading falls outside a 0.95 gate one time in twenty; chapter 09).
+        self.new_gate = 0.999
+        #: Without ids, what the last update's association saw: ``"d2"`` (k, N), every reading's
+        #: d2 to every landmark in ``landmark_ids`` order (NaN: degenerate), ``"in_gate"`` (k,),
+        #: the landmarks inside each reading's gate, ``"jcbb"``, JCBB's JCBBResult (or None).
+        self.last_association: dict = {}
         x0 = as_vector("x0", x0, 3).copy()
         P0 = as_covariance("P0", P0, 3)
         self.Q = as_covariance("Q", Q, 2)
@@ -541,6 +596,9 @@ class _EKFBase:
         ValueError
             On bad input, before anything changes.
         """
+        # -------- association step: without ids (chapter 09) the filter pairs the readings
+        if ids is None or self.association != "ids":
+            return self._update_without_ids(ids, z, R)
         ids = _as_ids(ids)
         k = ids.shape[0]
         z = _as_readings(z, k)
@@ -603,6 +661,134 @@ class _EKFBase:
         return UpdateReport(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new,
                             d2=d2, innovation=innov, predicted=pred, S=S_all,
                             threshold=self.threshold, gate=self.gate, joint_nis=joint_nis)
+
+    def _update_without_ids(self, ids, z, R) -> UpdateReport:
+        """The association step without ids (chapter 09): pair, fuse jointly, then add new ones.
+
+        1. Every reading against every mapped landmark at the prior: innovations
+           ``y_ij``, ``S_ij = H_j P H_j^T + R_i``, ``d2_ij`` (individual compatibility).
+        2. The pairs: :func:`slamlib.association.nearest_neighbour` (``"nn"``) or
+           :func:`slamlib.association.jcbb` (``"jcbb"``, on the landmarks inside
+           some reading's gate).
+        3. The paired readings are fused in one joint update, as with ids.
+        4. A reading far from every landmark (``d2 >= chi2.ppf(new_gate, 2)`` for
+           all) goes to :meth:`_unmatched` (EKFSLAM adds it as a new landmark;
+           ConfirmedSLAM holds it as a candidate; the map-based filter rejects
+           it). Any other unpaired reading (just outside the gate, or inside one
+           but its landmark took a closer reading, or JCBB left it out) is
+           ``"rejected"``.
+
+        The report's ``ids`` are -1 (none given); ``matched`` is the answer;
+        ``d2``, ``innovation``, ``predicted`` and ``S`` refer to the landmark the
+        reading was paired with or, when unpaired, to the one of smallest ``d2``.
+        """
+        if self.association == "ids":
+            raise ValueError("ids: None (readings without ids) needs a filter built with "
+                             "association='nn' or association='jcbb'; this one has "
+                             "association='ids': pass the marker ids, update(ids, z)")
+        if ids is not None:
+            raise ValueError(f"ids: this filter (association={self.association!r}) pairs the "
+                             f"readings itself: call update(None, z) without ids, or build "
+                             f"it with association='ids' to use the ids")
+        if self.gate is None:
+            _check_association(self.association, None)
+        k = _count_readings(z)
+        z = _as_readings(z, k)
+        Rk = _as_reading_noise(R, self.R, k)
+
+        keys = list(self.landmark_ids)
+        found = [self._lookup(m) for m in keys]
+        self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None,
+                                 "d2": np.full((k, len(keys)), np.nan)}
+        status = ["rejected"] * k
+        matched = np.full(k, -1, dtype=np.int64)
+        d2 = np.full(k, np.nan)
+        innov = np.full((k, 2), np.nan)
+        pred = np.full((k, 2), np.nan)
+        S_all = np.full((k, 2, 2), np.nan)
+        accepted = np.zeros(k, dtype=bool)
+        joint_nis = float("nan")
+        outside = np.ones(k, dtype=bool)          # outside every landmark's gate
+        if keys and k:
+            positions = np.array([f[0] for f in found])
+            slots = np.array([f[1] for f in found], dtype=np.int64)
+            h, Hp, Hl = self.reading_model(self._x[:3].copy(), positions)
+            ok = np.isfinite(h[:, 1])
+            cols = np.flatnonzero(ok)
+            h, Hp, Hl, slots = h[ok], Hp[ok], Hl[ok], slots[ok]
+        if keys and k and cols.size:
+            N = cols.size
+            y = z[:, None, :] - h[None, :, :]
+            y[:, :, 1] = wrap_angle(y[:, :, 1])
+            S0 = self._innovation_covs(slots, Hp, Hl, np.zeros((N, 2, 2)))   # H_j P H_j^T
+            S = S0[None, :, :, :] + Rk[:, None, :, :]
+            D2 = individual_d2(y, S)
+            inside = D2 < self.threshold
+            outside = np.all(D2 >= gate_threshold(max(self.new_gate, self.gate)), axis=1)
+            self.last_association["in_gate"] = np.count_nonzero(inside, axis=1)
+            self.last_association["d2"][:, cols] = D2
+            if self.association == "nn":
+                a = nearest_neighbour(D2, self.threshold)
+            else:
+                cand = np.flatnonzero(np.any(inside, axis=0))
+                a = np.full(k, -1, dtype=np.int64)
+                if cand.size:
+                    C = self._predicted_readings_cov(slots[cand], Hp[cand], Hl[cand])
+                    res = jcbb(y[:, cand], D2[:, cand], C, Rk, self.gate,
+                               max_nodes=self.max_nodes)
+                    self.last_association["jcbb"] = res
+                    paired = res.assignment >= 0
+                    a[paired] = cand[res.assignment[paired]]
+            near = np.where(a >= 0, a, np.argmin(D2, axis=1))
+            r = np.arange(k)
+            d2[:], innov[:], pred[:], S_all[:] = D2[r, near], y[r, near], h[near], S[r, near]
+            fused = np.flatnonzero(a >= 0)
+            for i in fused:
+                status[i] = "accepted"
+                matched[i] = keys[cols[a[i]]]
+            accepted[fused] = True
+            # -------- everything is checked: from here on the state changes
+            if fused.size:
+                j = a[fused]
+                joint_nis = self._fuse(slots[j], Hp[j], Hl[j], np.ascontiguousarray(y[fused, j]),
+                                       np.ascontiguousarray(Rk[fused]))
+                self._x[2] = wrap_angle(self._x[2])
+        new = np.zeros(k, dtype=bool)
+        for i, (st, mid) in zip(np.flatnonzero(outside), self._unmatched(
+                np.flatnonzero(outside), z, Rk)):
+            status[i] = st
+            if mid is not None:
+                matched[i] = mid
+                new[i] = st == "new"
+        return UpdateReport(ids=np.full(k, -1, dtype=np.int64), z=z, status=tuple(status),
+                            accepted=accepted, new=new, d2=d2, innovation=innov, predicted=pred,
+                            S=S_all, threshold=self.threshold, gate=self.gate,
+                            joint_nis=joint_nis, matched=matched)
+
+    def _predicted_readings_cov(self, slots, Hp, Hl) -> np.ndarray:
+        """``H P H^T`` (2N x 2N) of N predicted readings, cross terms included (for JCBB)."""
+        P = self._P
+        N = slots.size
+        if np.all(slots < 0):                    # known map: only the pose is uncertain
+            return pair_covariance(Hp, Hl, P[:3, :3], np.zeros((3, 2 * N)),
+                                   np.zeros((2 * N, 2 * N)))
+        idx = np.column_stack([slots, slots + 1]).reshape(-1)
+        return pair_covariance(Hp, Hl, P[:3, :3], P[:3, idx], P[np.ix_(idx, idx)])
+
+    def _unmatched(self, readings: np.ndarray, z: np.ndarray, R: np.ndarray):
+        """What becomes of readings without ids outside every gate: ``(status, map id)`` each.
+
+        The map-based filter rejects them; EKFSLAM adds each as a new landmark
+        named ``max(ids) + 1`` (0 for the first), from the updated pose.
+        """
+        if not self._can_add:
+            return [("rejected", None) for _ in readings]
+        out = []
+        for i in readings:
+            mid = max(self._ids) + 1 if self._ids else 0
+            self._add_landmark(mid, z[i], R[i])
+            out.append(("new", mid))
+        return out
 
     def _add_landmark(self, marker_id: int, z: np.ndarray, R: np.ndarray) -> None:
         """Append a landmark from the current pose and reading z (chapter 04)."""
@@ -755,15 +941,19 @@ class EKFLocalization(_EKFBase):
         b (m).
     gate : float or None
         Probability of the chi-square gate (0.95); None accepts every reading.
+    association : {"ids", "nn", "jcbb"}
+        How readings find their landmark: by marker id (default), or without
+        ids, ``update(None, z)``, by nearest neighbour or JCBB (chapter 09).
 
     An id that is not in the map is rejected (``status == "unknown"``), never an
     exception.
     """
 
     def __init__(self, x0, P0, Q, R, landmarks, wheel_base: float = KOBUKI_WHEEL_BASE,
-                 gate: float | None = 0.95):
+                 gate: float | None = 0.95, association: str = "ids"):
         lm = _as_landmark_map(landmarks)
-        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=0)
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=0,
+                         association=association)
         self._map = lm
 
     @property
@@ -804,16 +994,22 @@ class EKFSLAM(_EKFBase):
     capacity : int
         Number of landmarks to make room for at the start (the storage doubles
         when more arrive).
+    association : {"ids", "nn", "jcbb"}
+        How readings find their landmark: by marker id (default), or without
+        ids, ``update(None, z)``, by nearest neighbour or JCBB (chapter 09); a
+        reading outside every gate is then added as a new landmark, named by
+        the filter (0, 1, 2, ...).
     """
 
     _can_add = True
 
     def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
-                 gate: float | None = 0.95, capacity: int = 16):
+                 gate: float | None = 0.95, capacity: int = 16, association: str = "ids"):
         if isinstance(capacity, (bool, np.bool_)) or not isinstance(
                 capacity, (numbers.Integral, np.integer)) or capacity < 0:
             raise ValueError(f"capacity: expected a non-negative integer, got {capacity!r}")
-        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity,
+                         association=association)
 
     @property
     def landmark_ids(self) -> list[int]:

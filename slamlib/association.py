@@ -1,0 +1,307 @@
+"""Data association for readings without ids: nearest neighbour and JCBB (chapter 09).
+
+ArUco hands the filter an id with every reading, so association is a look-up
+(chapter 05). Without ids, each reading ``z_i`` must be paired with a landmark
+``j`` of the map, or with none (a new landmark, or clutter). This module holds
+the association itself as pure functions on the quantities the filter already
+computes at the prior: the innovations ``y_ij = z_i - h_j(x)`` (bearing
+wrapped), the predicted readings' covariance ``H P H^T`` and the readings'
+noise ``R_i``. :meth:`slamlib.ekf.EKFSLAM.update` (``association="nn"`` or
+``"jcbb"``) calls them; the chapter derives and checks them.
+
+Individual compatibility (the chi-square gate of chapter 05 for every pair)::
+
+    S_ij  = H_j P H_j^T + R_i
+    d2_ij = y_ij^T S_ij^-1 y_ij            compatible when d2_ij < chi2.ppf(gate, 2)
+
+Nearest neighbour (:func:`nearest_neighbour`): each reading goes to the
+compatible landmark of smallest ``d2_ij``; a landmark takes at most one reading
+per frame. Conflicts are settled in increasing order of ``d2`` (the globally
+closest pair first), so the result does not depend on the readings' order.
+
+Joint compatibility (:func:`joint_distance`): a hypothesis ``H = {(i, j_i)}``
+of m pairs is one stacked innovation ``y_H`` (2m) whose covariance is NOT
+block-diagonal: every predicted reading depends on the same robot pose, so::
+
+    S_H  = H_H P H_H^T + blockdiag(R_i)      (2m x 2m, cross terms H_j P H_j'^T)
+    D2_H = y_H^T S_H^-1 y_H                  jointly compatible when D2_H < chi2.ppf(gate, 2m)
+
+A robot error shifts all readings together; two readings that are each inside
+their landmarks' gates but shifted in opposite directions are jointly
+incompatible. That is what NN cannot see and what JCBB (Neira and Tardos 2001)
+uses.
+
+JCBB (:func:`jcbb`): depth-first over the readings in order; reading i is
+paired with each individually compatible, not yet used landmark (in increasing
+``d2_ij``) whose addition keeps the hypothesis jointly compatible, or left
+unpaired. The answer is the hypothesis with the MOST pairs and, among those,
+the smallest ``D2``. Branches are cut when they cannot beat the best so far
+(pairs already made + readings left that have a candidate < best pairs, or
+equal pairs and a ``D2`` already not smaller: ``D2`` never decreases as pairs
+are added). As in the paper, joint compatibility is tested at every
+extension, i.e. every prefix of the answer (in reading order) is jointly
+compatible. ``D2`` is updated incrementally with a Cholesky factor (O(m^2) per
+node).
+
+The bound on the search: ``max_nodes`` nodes (default 10 000). The first leaf
+of the depth-first search is the sequential nearest neighbour (each reading,
+in order, to its closest landmark that keeps the set jointly compatible); the
+search never stops before it. When the budget runs out, the best hypothesis
+found so far is returned, flagged ``complete=False``: never worse than the
+sequential nearest neighbour.
+"""
+
+from __future__ import annotations
+
+import math
+from dataclasses import dataclass
+
+import numpy as np
+
+__all__ = ["individual_d2", "nearest_neighbour", "pair_covariance", "joint_distance",
+           "JCBBResult", "jcbb", "chi2_threshold", "DEFAULT_MAX_NODES"]
+
+#: Default bound on the number of nodes JCBB visits in one frame.
+DEFAULT_MAX_NODES = 10_000
+
+
+def chi2_threshold(prob: float, dof: int) -> float:
+    """``chi2.ppf(prob, dof)``; closed form ``-2 ln(1 - prob)`` for 2 degrees of freedom."""
+    if dof == 2:
+        return float(-2.0 * math.log1p(-prob))
+    from scipy.stats import chi2
+
+    return float(chi2.ppf(prob, dof))
+
+
+def individual_d2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """Squared Mahalanobis distance of every (reading, landmark) pair.
+
+    Parameters
+    ----------
+    y : numpy.ndarray, shape (k, N, 2)
+        Innovations ``y_ij = z_i - h_j``, bearing wrapped to [-pi, pi).
+    S : numpy.ndarray, shape (k, N, 2, 2)
+        Their covariances ``S_ij = H_j P H_j^T + R_i``.
+
+    Returns
+    -------
+    numpy.ndarray, shape (k, N)
+        ``d2_ij = y_ij^T S_ij^-1 y_ij``.
+    """
+    y = np.asarray(y, dtype=float)
+    S = np.asarray(S, dtype=float)
+    if y.size == 0:
+        return np.zeros(y.shape[:2])
+    sol = np.linalg.solve(S, y[..., None])[..., 0]
+    return np.einsum("...i,...i->...", y, sol)
+
+
+def nearest_neighbour(d2: np.ndarray, threshold: float) -> np.ndarray:
+    """Individual-compatibility nearest neighbour with one reading per landmark.
+
+    Parameters
+    ----------
+    d2 : numpy.ndarray, shape (k, N)
+        Squared Mahalanobis distances of reading i to landmark j (NaN: not a candidate).
+    threshold : float
+        The gate on ``d2`` (``chi2.ppf(gate, 2)``).
+
+    Returns
+    -------
+    numpy.ndarray of int, shape (k,)
+        The landmark (column) each reading is paired with, -1 for none. Pairs
+        inside the gate are taken in increasing ``d2``; a reading or landmark
+        already taken is skipped (ties: lower reading, then lower landmark first).
+    """
+    d2 = np.asarray(d2, dtype=float)
+    k = d2.shape[0]
+    out = np.full(k, -1, dtype=np.int64)
+    if d2.size == 0:
+        return out
+    ii, jj = np.nonzero(d2 < threshold)            # NaN compares False: never a candidate
+    order = np.lexsort((jj, ii, d2[ii, jj]))
+    used = np.zeros(d2.shape[1], dtype=bool)
+    for q in order:
+        i, j = ii[q], jj[q]
+        if out[i] < 0 and not used[j]:
+            out[i] = j
+            used[j] = True
+    return out
+
+
+def pair_covariance(Hp: np.ndarray, Hl: np.ndarray, P_rr: np.ndarray, P_rl: np.ndarray,
+                    P_ll: np.ndarray) -> np.ndarray:
+    """Covariance of N predicted readings, ``H P H^T`` (2N x 2N), from the blocks it needs.
+
+    Row pair j is the predicted reading of landmark j, whose Jacobian is
+    ``[Hp_j, Hl_j]`` on the robot's 3 columns and landmark j's 2 columns::
+
+        C_jj' = Hp_j P_rr Hp_j'^T + Hp_j P_r,j' Hl_j'^T + Hl_j P_j,r Hp_j'^T + Hl_j P_jj' Hl_j'^T
+
+    Parameters
+    ----------
+    Hp : (N, 2, 3), Hl : (N, 2, 2)
+        Jacobians of each predicted reading w.r.t. the pose and its landmark.
+    P_rr : (3, 3)
+        The pose's covariance.
+    P_rl : (3, 2N)
+        Pose-landmark cross covariance, landmark j in columns 2j, 2j+1.
+    P_ll : (2N, 2N)
+        The landmarks' joint covariance. For a known map (localisation) pass
+        zeros for ``P_rl`` and ``P_ll``, and ``Hl`` is irrelevant.
+
+    Returns
+    -------
+    numpy.ndarray (2N, 2N), symmetric
+    """
+    N = Hp.shape[0]
+    A = Hp.reshape(2 * N, 3)                        # rows of the pose Jacobians, stacked
+    B = np.zeros((2 * N, 2 * N))                    # block-diagonal landmark Jacobians
+    for j in range(N):
+        B[2 * j:2 * j + 2, 2 * j:2 * j + 2] = Hl[j]
+    AP = A @ P_rr @ A.T
+    X = A @ P_rl @ B.T
+    C = AP + X + X.T + B @ P_ll @ B.T
+    return 0.5 * (C + C.T)
+
+
+def joint_distance(y: np.ndarray, C: np.ndarray) -> float:
+    """Joint squared Mahalanobis distance ``y^T C^-1 y`` of one hypothesis.
+
+    Parameters
+    ----------
+    y : numpy.ndarray, shape (m, 2)
+        The paired innovations, stacked.
+    C : numpy.ndarray, shape (2m, 2m)
+        Their joint covariance ``H_H P H_H^T + blockdiag(R_i)`` (the cross terms included).
+    """
+    yv = np.asarray(y, dtype=float).reshape(-1)
+    if yv.size == 0:
+        return 0.0
+    return float(yv @ np.linalg.solve(C, yv))
+
+
+@dataclass(frozen=True)
+class JCBBResult:
+    """The answer of :func:`jcbb`.
+
+    Attributes
+    ----------
+    assignment : numpy.ndarray of int (k,)
+        Landmark paired with each reading, -1 for none.
+    pairs : int
+        Number of pairs.
+    d2 : float
+        Joint ``D2`` of the hypothesis (0 with no pair).
+    nodes : int
+        Nodes the search visited.
+    complete : bool
+        False when ``max_nodes`` stopped the search (the answer is then the best found).
+    """
+
+    assignment: np.ndarray
+    pairs: int
+    d2: float
+    nodes: int
+    complete: bool
+
+
+def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: float, *,
+         max_nodes: int = DEFAULT_MAX_NODES) -> JCBBResult:
+    """Joint Compatibility Branch and Bound (Neira and Tardos 2001).
+
+    Parameters
+    ----------
+    y : numpy.ndarray, shape (k, N, 2)
+        Innovations of every (reading, landmark) pair, bearing wrapped.
+    d2 : numpy.ndarray, shape (k, N)
+        Their individual distances (:func:`individual_d2`); a pair is a
+        candidate when ``d2 < chi2.ppf(gate, 2)``.
+    C : numpy.ndarray, shape (2N, 2N)
+        Covariance of the N predicted readings ``H P H^T`` (:func:`pair_covariance`).
+    R : numpy.ndarray, shape (k, 2, 2)
+        The readings' noise.
+    gate : float
+        The probability of the individual and joint chi-square tests.
+    max_nodes : int
+        Bound on the nodes visited (see the module docstring for the fallback).
+
+    Returns
+    -------
+    JCBBResult
+    """
+    y = np.asarray(y, dtype=float)
+    d2 = np.asarray(d2, dtype=float)
+    k = d2.shape[0]
+    thr1 = chi2_threshold(gate, 2)
+    cands = []
+    for i in range(k):
+        js = np.flatnonzero(d2[i] < thr1) if d2.size else np.zeros(0, np.int64)
+        cands.append([int(j) for j in js[np.argsort(d2[i, js], kind="stable")]])
+    # readings after i that have at least one candidate
+    left = np.zeros(k + 1, dtype=int)
+    for i in range(k - 1, -1, -1):
+        left[i] = left[i + 1] + (1 if cands[i] else 0)
+    thresholds = [0.0] + [chi2_threshold(gate, 2 * m) for m in range(1, k + 1)]
+
+    best = {"assign": np.full(k, -1, dtype=np.int64), "pairs": 0, "d2": 0.0, "leaf": False}
+    nodes = 0
+    stopped = False
+    assign = np.full(k, -1, dtype=np.int64)
+    used = set()
+
+    def worse(pairs_possible: int, d2_now: float) -> bool:
+        """True if no completion of this node can beat the best hypothesis so far."""
+        if not best["leaf"]:
+            return False
+        if pairs_possible != best["pairs"]:
+            return pairs_possible < best["pairs"]
+        return d2_now >= best["d2"]
+
+    def search(i: int, pairs: int, L: np.ndarray, w: np.ndarray, idx: list, dist: float):
+        nonlocal nodes, stopped
+        nodes += 1
+        if best["leaf"] and nodes > max_nodes:
+            stopped = True
+            return
+        if i == k:
+            if not worse(pairs, dist) or not best["leaf"]:
+                best.update(assign=assign.copy(), pairs=pairs, d2=dist, leaf=True)
+            return
+        for j in cands[i]:
+            if stopped:
+                return
+            if j in used or worse(pairs + 1 + left[i + 1], dist):
+                continue
+            # incremental Cholesky of the joint covariance with pair (i, j) appended
+            cq = C[np.ix_(idx, [2 * j, 2 * j + 1])] if idx else np.zeros((0, 2))
+            Cqq = C[2 * j:2 * j + 2, 2 * j:2 * j + 2] + R[i]
+            B = np.linalg.solve(L, cq).T if idx else np.zeros((2, 0))   # 2 x 2m
+            M = Cqq - B @ B.T
+            try:
+                Lc = np.linalg.cholesky(0.5 * (M + M.T))
+            except np.linalg.LinAlgError:
+                continue
+            v = np.linalg.solve(Lc, y[i, j] - B @ w)
+            dnew = dist + float(v @ v)
+            if dnew >= thresholds[pairs + 1]:
+                continue                                   # not jointly compatible
+            m2 = L.shape[0]
+            Ln = np.zeros((m2 + 2, m2 + 2))
+            Ln[:m2, :m2] = L
+            Ln[m2:, :m2] = B
+            Ln[m2:, m2:] = Lc
+            assign[i] = j
+            used.add(j)
+            search(i + 1, pairs + 1, Ln, np.concatenate([w, v]), idx + [2 * j, 2 * j + 1], dnew)
+            used.discard(j)
+            assign[i] = -1
+        if stopped:
+            return
+        if not worse(pairs + left[i + 1], dist):
+            search(i + 1, pairs, L, w, idx, dist)              # reading i unpaired
+
+    search(0, 0, np.zeros((0, 0)), np.zeros(0), [], 0.0)
+    return JCBBResult(assignment=best["assign"], pairs=int(best["pairs"]), d2=float(best["d2"]),
+                      nodes=nodes, complete=not stopped)

@@ -1,0 +1,240 @@
+"""Chapter 09's study: the course's runs with the ids hidden, associated by NN or JCBB.
+
+- :func:`run_without_ids` drives a filter over a run like
+  :func:`slamlib.experiments.run_filter`, but hands it ``update(None, z)``
+  (for ``association="ids"`` the ids as read) and keeps each frame's true ids;
+- :func:`association_errors` scores a run: how many readings were fused into
+  the wrong landmark, rejected, or started a landmark from clutter;
+- :func:`study` runs ids / NN / JCBB over many seeds (ATE, NEES, wrong
+  association rate, rejected readings), in a process pool whose answer does
+  not depend on the number of workers; :func:`save_study` / :func:`load_study`
+  store it as JSON (``make association-study`` writes
+  ``data/studies/association_study.json``; a test recomputes a sample).
+"""
+
+from __future__ import annotations
+
+import json
+from concurrent.futures import ProcessPoolExecutor
+from dataclasses import dataclass
+from pathlib import Path
+
+import numpy as np
+
+from .. import experiments as ex
+from ..confirmation import ConfirmedSLAM
+from ..ekf import EKFSLAM
+from ..metrics import ate
+from ..runs import Run
+
+__all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
+           "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
+           "crowded_frame"]
+
+#: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
+STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
+#: The study's settings: the arena re-simulated with clutter, the first 30 s (first lap).
+STUDY_SETTINGS = {"scenario": "arena_loop", "p_outlier": 0.1, "max_time": 30.0,
+                  "seeds": list(range(2000, 2100)), "methods": ["ids", "nn", "jcbb"]}
+
+
+def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: float = 0.95,
+                n_confirm: int = 2):
+    """The chapter's filter for ``run``: ConfirmedSLAM (or plain EKFSLAM) with that association."""
+    R = run.sensor().R(2.0)
+    args = (run.start_pose, ex.DEFAULT_P0, run.Q(), R)
+    if not confirmed:
+        return EKFSLAM(*args, wheel_base=run.wheel_base, gate=gate, association=association)
+    return ConfirmedSLAM(*args, wheel_base=run.wheel_base, gate=gate, association=association,
+                         n_confirm=n_confirm)
+
+
+def run_without_ids(run: Run, filt, *, max_time: float | None = None):
+    """Drive ``filt`` over ``run`` with the ids hidden (unless its association is ``"ids"``).
+
+    Returns
+    -------
+    (trace, true_ids) : (slamlib.experiments.Trace, list of numpy.ndarray)
+        The trace (one report per frame with readings) and, per report, the
+        true marker of each reading (-1 for clutter).
+    """
+    sensor = run.sensor()
+    anonymous = filt.association != "ids"
+    rec = ex.TraceRecorder(run.enc_t[0], filt)
+    true_ids = []
+    for ev in run.events():
+        if max_time is not None and ev.t > max_time:
+            break
+        report = None
+        if ev.kind == "predict":
+            filt.predict(ev.u, ev.dt)
+        else:
+            obs = ev.obs
+            if len(obs) == 0:
+                continue
+            R = ex.reading_covariances(sensor, obs.z)
+            report = filt.update(None if anonymous else obs.ids, obs.z, R=R)
+            true_ids.append(obs.true_ids.copy())
+        rec.record(ev.t, ev.kind, filt, report)
+    return rec.trace(run, filt), true_ids
+
+
+@dataclass(frozen=True)
+class AssociationScore:
+    """How one run's readings were associated.
+
+    A landmark is *labelled* with the true marker that most of its readings
+    (the one that started it and those fused into it) came from; a fused
+    reading is *wrong* when its true marker is not its landmark's label. (A
+    landmark started by marker 31 and fed marker 21 for the rest of the run is
+    marker 21's landmark: its first reading counts as the wrong one.)
+
+    Attributes
+    ----------
+    readings : int
+        Readings of real markers (clutter excluded).
+    fused : int
+        Readings of real markers fused into a landmark.
+    wrong : int
+        Of those, readings whose landmark's label is another marker (or clutter).
+    rejected : int
+        Readings of real markers not used (rejected, candidate, duplicate).
+    clutter : int
+        Clutter readings in the run.
+    clutter_fused : int
+        Clutter readings fused into a landmark.
+    clutter_landmarks : int
+        Landmarks of the final map started by a clutter reading.
+    duplicates : int
+        Landmarks of the final map whose label is a marker that labels another one too.
+    origin : dict
+        Map id -> the true marker whose reading started it (-1: clutter).
+    label : dict
+        Map id -> the true marker most of its readings came from.
+    """
+
+    readings: int
+    fused: int
+    wrong: int
+    rejected: int
+    clutter: int
+    clutter_fused: int
+    clutter_landmarks: int
+    duplicates: int
+    origin: dict
+    label: dict
+
+    @property
+    def wrong_rate(self) -> float:
+        """Wrong associations per fused reading."""
+        return self.wrong / self.fused if self.fused else 0.0
+
+
+def association_errors(trace, true_ids) -> AssociationScore:
+    """Score ``trace`` (from :func:`run_without_ids`) against the true ids of its readings."""
+    origin: dict[int, int] = {}
+    votes: dict[int, dict[int, int]] = {}
+    for (_, rep), tid in zip(trace.reports, true_ids):
+        for i, t in enumerate(tid):
+            m = int(rep.matched[i])
+            if rep.new[i]:
+                origin[m] = int(t)
+            if rep.new[i] or rep.accepted[i]:
+                v = votes.setdefault(m, {})
+                v[int(t)] = v.get(int(t), 0) + 1
+    # the majority; a tie goes to the marker that started the landmark, then to the lower id
+    label = {m: max(v, key=lambda t, m=m: (v[t], t == origin.get(m), -t))
+             for m, v in votes.items()}
+    readings = fused = wrong = rejected = clutter = clutter_fused = 0
+    for (_, rep), tid in zip(trace.reports, true_ids):
+        for i, t in enumerate(tid):
+            t = int(t)
+            clutter += t < 0
+            readings += t >= 0
+            if rep.accepted[i] and not rep.new[i]:
+                if t < 0:
+                    clutter_fused += 1
+                    continue
+                fused += 1
+                wrong += label[int(rep.matched[i])] != t
+            elif t >= 0 and not rep.new[i]:
+                rejected += 1
+    labels = list(label.values())
+    dup = sum(labels.count(t) - 1 for t in set(labels) if t >= 0)
+    return AssociationScore(readings, fused, wrong, rejected, clutter, clutter_fused,
+                            list(origin.values()).count(-1), dup, origin, label)
+
+
+def study_row(seed: int, method: str, settings: dict = STUDY_SETTINGS) -> dict:
+    """One run of the study: ATE (m), mean pose NEES, the association's counts."""
+    from ..sim import scenario
+
+    run = scenario(settings["scenario"], seed=int(seed), p_outlier=settings["p_outlier"])
+    filt = make_filter(run, method)
+    tr, tid = run_without_ids(run, filt, max_time=settings["max_time"])
+    sc = association_errors(tr, tid)
+    return {"seed": int(seed), "method": method,
+            "ate": round(float(ate(tr.x, tr.truth).position), 6),
+            "nees": round(float(np.mean(tr.nees)), 6),
+            "readings": sc.readings, "fused": sc.fused, "wrong": sc.wrong,
+            "rejected": sc.rejected, "clutter": sc.clutter, "clutter_fused": sc.clutter_fused,
+            "clutter_landmarks": sc.clutter_landmarks, "duplicates": sc.duplicates,
+            "landmarks": int(filt.n_landmarks)}
+
+
+def _row(args):
+    return study_row(*args)
+
+
+def study(settings: dict = STUDY_SETTINGS, workers: int = 2) -> list[dict]:
+    """Every (seed, method) of ``settings``, in that order (the same for any ``workers``)."""
+    jobs = [(s, m, settings) for s in settings["seeds"] for m in settings["methods"]]
+    if workers <= 1:
+        return [_row(j) for j in jobs]
+    with ProcessPoolExecutor(max_workers=workers) as pool:
+        return list(pool.map(_row, jobs, chunksize=4))
+
+
+def save_study(rows: list[dict], path=STUDY_PATH, settings: dict = STUDY_SETTINGS) -> None:
+    """Write the study as JSON (sorted keys, fixed rounding: the same rows give the same bytes)."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    text = json.dumps({"settings": settings, "rows": rows}, indent=1, sort_keys=True)
+    path.write_text(text + "\n", encoding="utf-8")
+
+
+def load_study(path=STUDY_PATH) -> tuple[dict, list[dict]]:
+    """``(settings, rows)`` of a stored study."""
+    d = json.loads(Path(path).read_text(encoding="utf-8"))
+    return d["settings"], d["rows"]
+
+
+if __name__ == "__main__":  # python -m slamlib.course.association_study [OUT.json]
+    import sys
+
+    out = Path(sys.argv[1]) if len(sys.argv) > 1 else STUDY_PATH
+    save_study(study(), out)
+    print(f"wrote {out}")
+
+
+def crowded_frame(k: int, spacing: float, clutter: float = 0.0, seed: int = 0):
+    """A known map of k landmarks in two staggered rows ``spacing`` apart, a filter on it
+    (``EKFLocalization``, JCBB, pose sigma 0.1 m and 2 deg) and one frame of k readings, a
+    fraction ``clutter`` of which are spurious readings near random landmarks (chapter 09's
+    cost of JCBB). Returns ``(filter, z)``."""
+    from ..ekf import EKFLocalization
+    from ..models import observe
+
+    Q = np.diag([1e-4, 1e-4])
+    R = np.diag([0.02**2, np.radians(1.0) ** 2])
+    lm = {j: np.array([2.0 + 0.3 * (j % 2), -0.5 * spacing * (k - 1) + spacing * j])
+          for j in range(k)}
+    P0 = np.diag([0.1**2, 0.1**2, np.radians(2.0) ** 2])
+    f = EKFLocalization(np.zeros(3), P0, Q, R, lm, association="jcbb")
+    true = np.array([0.03, 0.05, 0.01])
+    rng = np.random.default_rng(seed)
+    seen = rng.permutation(k)[:int(round(k * (1.0 - clutter)))]
+    z = [observe(true, lm[j]) + rng.normal(0.0, [0.02, 0.017]) for j in seen]
+    z += [observe(true, lm[int(rng.integers(k))] + rng.normal(0.0, 0.06, 2))
+          for _ in range(k - len(seen))]
+    return f, np.array(z)
