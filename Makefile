@@ -5,7 +5,7 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
-.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean
+.PHONY: venv figures test lint unit nbval notebooks student runs lab bench clean evidence
 
 venv: $(STAMP)
 
@@ -43,6 +43,10 @@ student: $(STAMP)
 ## Regenerate the recorded runs in data/runs (bit for bit the same for the same code)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
+
+## Regenerate the stored 100-seed studies in data/evidence (bit for bit; about 30 min on 2 cores)
+evidence: $(STAMP)
+	$(PY) tools/make_evidence.py --workers 2
 
 ## Open the course in JupyterLab on localhost
 lab: $(STAMP)
