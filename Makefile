@@ -5,8 +5,8 @@ PY     := $(VENV)/bin/python
 STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
-.PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book student \
-        runs lab bench clean studies
+.PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
+        student runs lab bench clean studies evidence association-study
 
 venv: $(STAMP)
 
@@ -63,9 +63,12 @@ studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
 ## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit)
-.PHONY: association-study
 association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
+
+## Regenerate the stored 100-seed studies in data/evidence (bit for bit; about 30 min on 2 cores)
+evidence: $(STAMP)
+	$(PY) tools/make_evidence.py --workers 2
 
 ## Open the course in JupyterLab on 127.0.0.1:8888 with a token (as root too, e.g. in a container)
 lab: $(STAMP)
