@@ -69,6 +69,7 @@ from ..experiments import slam as _slam
 from ..frames import angles_from_zup, points_from_zup, pose_from_zup
 from ..runs import CameraRows, Run
 from ..sensors import AnalyticMarkerSensor
+from ..validate import as_covariance
 from ..worlds import DATA_DIR, Marker, World
 
 __all__ = ["Log", "MRCLAMFormatError", "load", "read_table", "dead_reckoning", "localization",
@@ -286,23 +287,36 @@ class Log(Run):
         return self.u.copy(), np.diff(self.enc_t)
 
     def Q(self, dt: float | None = None, quantisation: bool = False) -> np.ndarray:
-        """``sigma_wheel^2 I``: commanded speeds are not counted ticks, nothing is quantised."""
+        """The 2x2 covariance of ``u = [V_R, V_L]`` per prediction step.
+
+        ``meta["motion"]["Q"]`` if given (e.g. identified from data, chapter 10),
+        else ``sigma_wheel^2 I``: commanded speeds are not counted ticks, so
+        nothing is quantised.
+        """
+        q = self.meta.get("motion", {}).get("Q")
+        if q is not None:
+            return np.array(q, dtype=float)
         return self.sigma_wheel ** 2 * np.eye(2)
 
     def world(self) -> World:
         """The landmark map (ids are barcodes), frame N."""
         return self.landmark_world
 
-    def with_noise(self, *, sigma_wheel: float | None = None, **sensor) -> Log:
+    def with_noise(self, *, sigma_wheel: float | None = None, Q=None, **sensor) -> Log:
         """The same log with other noise for the runners.
 
-        ``sigma_wheel`` (m/s per wheel and prediction step) and any
+        ``sigma_wheel`` (m/s per wheel and prediction step, ``Q = sigma^2 I``),
+        or a full 2x2 ``Q`` of ``[V_R, V_L]``, and any
         :class:`~slamlib.sensors.AnalyticMarkerSensor` parameter
         (``sigma_range0``, ``sigma_range_per_m``, ``sigma_bearing``).
         """
         meta = {**self.meta}
+        meta["motion"] = {**meta.get("motion", {})}
         if sigma_wheel is not None:
-            meta["motion"] = {**meta.get("motion", {}), "sigma_wheel": float(sigma_wheel)}
+            meta["motion"]["sigma_wheel"] = float(sigma_wheel)
+            meta["motion"].pop("Q", None)
+        if Q is not None:
+            meta["motion"]["Q"] = as_covariance("Q", Q, 2).tolist()
         if sensor:
             params = {**meta["sensor"], **{k: float(v) for k, v in sensor.items()}}
             AnalyticMarkerSensor.from_params(params)   # checks the names and values
@@ -357,7 +371,9 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
         What a reading of a barcode no subject carries does: raise
         :class:`MRCLAMFormatError`, or be dropped (and counted).
     noise : dict, optional
-        ``sigma_wheel`` and sensor parameters (default :data:`TEXTBOOK_NOISE`).
+        ``sigma_wheel`` or a 2x2 ``Q``, and sensor parameters
+        (``sigma_range0``, ``sigma_range_per_m``, ``sigma_bearing``); what is not
+        given comes from :data:`TEXTBOOK_NOISE`.
     command_scale : (float, float)
         Factors applied to the logged ``v`` and ``w`` (a calibration; 1 = as logged).
     command_delay : float
@@ -453,12 +469,16 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
                         true_id=np.full(t_me.size, -1), true_rho=np.full(t_me.size, np.nan),
                         true_bearing=np.full(t_me.size, np.nan))
     nz = {**TEXTBOOK_NOISE, **(noise or {})}
-    sensor = AnalyticMarkerSensor(**{k: float(v) for k, v in nz.items() if k != "sigma_wheel"})
+    sensor = AnalyticMarkerSensor(**{k: float(v) for k, v in nz.items()
+                                     if k not in ("sigma_wheel", "Q")})
+    motion = {"sigma_wheel": float(nz["sigma_wheel"])}
+    if nz.get("Q") is not None:
+        motion["Q"] = as_covariance("noise['Q']", nz["Q"], 2).tolist()
     meta = {
         "world": world.name, "robot": robot, "folder": str(folder), "source": "UTIAS MRCLAM",
         "duration": float(timeline[-1] - timeline[0]),
         "encoder": {"wheel_base": float(wheel_base)},
-        "motion": {"sigma_wheel": float(nz["sigma_wheel"])},
+        "motion": motion,
         "sensor": sensor.params(),
         "dropped": {"robot_readings": n_robot, "unknown_barcode_readings": int(np.sum(~known)),
                     "readings_outside_vicon": int(np.sum(known & ~is_robot) - np.sum(use))},
