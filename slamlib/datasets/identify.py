@@ -9,9 +9,15 @@ with what it should have been:
   shows against the commanded ones integrated over the same window. A least
   squares fit gives scale factors (a command is not what the wheels do) and a
   delay (the command takes effect later than it is logged); what remains is
-  the noise. Its variance over a window of length ``W``, for white noise of
-  per-step variance ``s^2`` on steps of ``dt``, is ``s^2 dt / W``, so
-  ``s^2 = var(residual) W / dt``. The filters take ``u = [V_R, V_L]``: with
+  the noise. The filters add noise per prediction step: a speed error of
+  variance ``s^2`` held over a step of ``dt_k``, so that the mean over a window
+  of length ``W`` has variance ``s^2 sum_k dt_k^2 / W^2``, which is
+  ``s^2 dt / W`` for equal steps of ``dt``. With ``dt`` the median step,
+  ``s^2 = var(residual) W / dt``. On a real timeline, whose steps are not all
+  equal (gaps of up to a second between commands), the longer steps make the
+  filter's variance larger than that (``mean_step_sq`` tells by how much);
+  the residuals are also correlated in time, which makes the true error grow
+  faster than white noise would: chapter 10 measures both. The filters take ``u = [V_R, V_L]``: with
   ``V_R = v - b w/2`` and ``V_L = v + b w/2`` (z-down), independent noises on
   ``v`` and ``w`` give ``Q = J diag(s_v^2, s_w^2) J^T``, ``J = [[1, -b/2],
   [1, b/2]]``, a Q whose wheels are correlated.
@@ -57,8 +63,9 @@ class OdometryWindows:
     """Forward speed and yaw rate (z-down) over windows: from the truth and commanded.
 
     All arrays have one entry per window; ``v_cmd``/``w_cmd`` are the
-    commands' means over the window shifted by ``delay``; ``dt`` is the
-    log's median prediction step.
+    commands' means over the window shifted by ``delay``; ``step_sq`` the sum
+    of the squared prediction steps inside each window (s^2, steps cut at the
+    window's edges); ``dt`` is the log's median prediction step.
     """
 
     t: np.ndarray
@@ -66,6 +73,7 @@ class OdometryWindows:
     w_true: np.ndarray
     v_cmd: np.ndarray
     w_cmd: np.ndarray
+    step_sq: np.ndarray
     window: float
     delay: float
     dt: float
@@ -96,8 +104,13 @@ def odometry_windows(log, window: float = 1.0, delay: float = 0.0) -> OdometryWi
     a, b = t - delay, t + window - delay
     v_cmd = (np.interp(b, T, cum_v) - np.interp(a, T, cum_v)) / window
     w_cmd = (np.interp(b, T, cum_w) - np.interp(a, T, cum_w)) / window
-    return OdometryWindows(t, v_true, w_true, v_cmd, w_cmd, float(window), float(delay),
-                           float(np.median(dt)))
+    # sum of squared steps inside [a, b]: whole steps, plus the parts cut by the edges
+    ia, ib = np.searchsorted(T, a, side="right"), np.searchsorted(T, b, side="right")
+    cum_d2 = np.r_[0.0, np.cumsum(dt * dt)]
+    step_sq = cum_d2[np.maximum(ib - 1, ia)] - cum_d2[ia]
+    step_sq += (T[np.minimum(ia, T.size - 1)] - a) ** 2 + (b - T[np.maximum(ib - 1, 0)]) ** 2
+    return OdometryWindows(t, v_true, w_true, v_cmd, w_cmd, step_sq, float(window),
+                           float(delay), float(np.median(dt)))
 
 
 def wheel_speed_covariance(sigma_v: float, sigma_w: float, wheel_base: float) -> np.ndarray:
@@ -118,9 +131,11 @@ class OdometryCalibration:
         Seconds from a command's log time to its effect.
     sigma_v, sigma_w : float
         Per-step standard deviations of the remaining noise on ``v`` (m/s) and
-        ``w`` (rad/s), for steps of ``dt``.
+        ``w`` (rad/s) (see the module doc).
     window, dt : float
-        The window and the median step they were computed for.
+        The window, and the median step of the logs.
+    mean_step_sq : float
+        The mean over the windows of the sum of squared steps inside (s^2).
     rms_v, rms_w : float
         RMS of the window residuals (m/s, rad/s) before and after: tuples
         ``(raw, calibrated)``.
@@ -135,6 +150,7 @@ class OdometryCalibration:
     dt: float
     rms_v: tuple
     rms_w: tuple
+    mean_step_sq: float
 
     def Q(self, wheel_base: float) -> np.ndarray:
         """The identified covariance of ``u = [V_R, V_L]`` per step (see the module doc)."""
@@ -156,25 +172,26 @@ def calibrate_odometry(logs, window: float = 1.0, delays=None) -> OdometryCalibr
     def pooled(delay):
         ws = [odometry_windows(lg, window, float(delay)) for lg in logs]
         return (np.concatenate([getattr(w, k) for w in ws])
-                for k in ("v_true", "w_true", "v_cmd", "w_cmd")), ws[0].dt
+                for k in ("v_true", "w_true", "v_cmd", "w_cmd", "step_sq")), ws[0].dt
 
     best = None
     for delay in delays:
-        (vt, wt, vc, wc), dt = pooled(delay)
+        (vt, wt, vc, wc, d2), dt = pooled(delay)
         sv, sw = np.sum(vt * vc) / np.sum(vc * vc), np.sum(wt * wc) / np.sum(wc * wc)
         cost = float(np.mean((wt - sw * wc) ** 2))
         if best is None or cost < best[0]:
-            best = (cost, float(delay), sv, sw, vt, wt, vc, wc, dt)
-    _, delay, sv, sw, vt, wt, vc, wc, dt = best
-    (vt0, wt0, vc0, wc0), _ = pooled(0.0)
+            best = (cost, float(delay), sv, sw, vt, wt, vc, wc, d2, dt)
+    _, delay, sv, sw, vt, wt, vc, wc, d2, dt = best
+    (vt0, wt0, vc0, wc0, _), _ = pooled(0.0)
     rv, rw = vt - sv * vc, wt - sw * wc
-    scale = window / dt
+    gain = np.sqrt(window / dt)                 # s = sd(residual) sqrt(W / dt), equal steps
     return OdometryCalibration(
         scale_v=float(sv), scale_w=float(sw), delay=delay,
-        sigma_v=float(np.std(rv) * np.sqrt(scale)), sigma_w=float(np.std(rw) * np.sqrt(scale)),
+        sigma_v=float(np.std(rv) * gain), sigma_w=float(np.std(rw) * gain),
         window=float(window), dt=float(dt),
         rms_v=(float(np.sqrt(np.mean((vt0 - vc0) ** 2))), float(np.sqrt(np.mean(rv ** 2)))),
-        rms_w=(float(np.sqrt(np.mean((wt0 - wc0) ** 2))), float(np.sqrt(np.mean(rw ** 2)))))
+        rms_w=(float(np.sqrt(np.mean((wt0 - wc0) ** 2))), float(np.sqrt(np.mean(rw ** 2)))),
+        mean_step_sq=float(np.mean(d2)))
 
 
 # --------------------------------------------------------------------------- readings
