@@ -57,7 +57,7 @@ from .worlds import DATA_DIR, Marker, World
 __all__ = [
     "MIN_OPENCV", "R_BASE_CAM", "DEFAULT_BASE_HEIGHT", "CALIBRATION_DIR",
     "CalibrationFormatError", "Camera", "load_camera", "save_camera", "default_camera",
-    "read_opencv_calibration",
+    "read_opencv_calibration", "CharucoCalibration", "calibrate_charuco",
     "camera_to_range_bearing", "base_pose_matrix",
     "get_dictionary", "read_dictionary", "marker_image", "marker_object_points",
     "marker_corners_world",
@@ -289,6 +289,51 @@ def read_opencv_calibration(path, width: int | None = None, height: int | None =
         return Camera(K, np.r_[dist.reshape(-1), 0.0][:5], T, w, h, name=path.stem)
     except (ValueError, TypeError) as exc:
         raise CalibrationFormatError(f"{path}: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class CharucoCalibration:
+    """What :func:`calibrate_charuco` found: ``rms`` reprojection error (px), ``K``, ``dist``
+    (5,), the ChArUco corners found in each image, and the image size ``(width, height)``."""
+
+    rms: float
+    K: np.ndarray
+    dist: np.ndarray
+    corners_per_image: tuple
+    size: tuple
+
+
+def calibrate_charuco(images, squares=(5, 7), square_length: float = 0.04,
+                      marker_length: float = 0.02, dictionary="DICT_6X6_250",
+                      min_corners: int = 6) -> CharucoCalibration:
+    """Calibrate a camera from photos of a ChArUco board with OpenCV (chapter 02).
+
+    ``cv2.aruco.CharucoDetector(board).detectBoard`` finds the chessboard
+    corners between the markers in each image, ``board.matchImagePoints``
+    pairs them with the board's 3-D points, and ``cv2.calibrateCamera`` fits
+    ``K`` and the distortion ``[k1, k2, p1, p2, k3]``. Images with fewer than
+    ``min_corners`` corners are left out.
+    """
+    board = cv2.aruco.CharucoBoard(tuple(int(n) for n in squares), float(square_length),
+                                   float(marker_length), get_dictionary(dictionary))
+    detector = cv2.aruco.CharucoDetector(board)
+    objs, pix, counts, size = [], [], [], None
+    for img in images:
+        gray = _as_gray(img)
+        size = (gray.shape[1], gray.shape[0]) if size is None else size
+        if (gray.shape[1], gray.shape[0]) != size:
+            raise ValueError(f"images: expected all of size {size}, got {gray.shape[::-1]}")
+        cc, ci, _, _ = detector.detectBoard(gray)
+        n = 0 if ci is None else len(ci)
+        counts.append(n)
+        if n >= min_corners:
+            o, p = board.matchImagePoints(cc, ci)
+            objs.append(o)
+            pix.append(p)
+    if len(objs) < 1:
+        raise ValueError(f"images: no image shows at least {min_corners} ChArUco corners")
+    rms, K, dist, _, _ = cv2.calibrateCamera(objs, pix, size, None, None)
+    return CharucoCalibration(float(rms), K, dist.reshape(-1)[:5], tuple(counts), size)
 
 
 def save_camera(camera: Camera, path) -> None:

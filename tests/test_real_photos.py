@@ -65,3 +65,22 @@ def test_a_predefined_dictionary_finds_nothing_and_bad_files_are_named(gridboard
         vision.read_dictionary(bad)
     with pytest.raises(vision.CalibrationFormatError, match="image_width"):
         vision.read_opencv_calibration(PHOTOS / "tutorial_camera_params.yml")
+
+
+def test_charuco_calibration_of_the_four_photos_matches_opencvs_own():
+    imgs = [cv2.imread(str(PHOTOS / f"img_0{k}.jpg"), cv2.IMREAD_GRAYSCALE) for k in range(4)]
+    cal = vision.calibrate_charuco(imgs)
+    ref = vision.read_opencv_calibration(PHOTOS / "tutorial_camera_charuco.yml")
+    assert cal.corners_per_image == (24, 24, 24, 24) and cal.size == (640, 480)
+    assert cal.rms < 0.25                              # OpenCV's file: 0.18 px
+    np.testing.assert_allclose(np.diag(cal.K)[:2], np.diag(ref.K)[:2], rtol=0.02)
+    np.testing.assert_allclose(cal.K[:2, 2], ref.K[:2, 2], atol=3.0)
+    # the two calibrations project the same points to within a few pixels (fy differs by 1 %)
+    rng = np.random.default_rng(0)
+    pts = np.column_stack([rng.uniform(-0.3, 0.3, (50, 2)), rng.uniform(0.4, 1.0, 50)])
+    a, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), cal.K, cal.dist)
+    b, _ = cv2.projectPoints(pts, np.zeros(3), np.zeros(3), ref.K, ref.dist)
+    inside = np.all((b.reshape(-1, 2) > 0) & (b.reshape(-1, 2) < [640, 480]), axis=1)
+    assert inside.sum() > 20
+    d = np.linalg.norm((a - b).reshape(-1, 2)[inside], axis=1)
+    assert np.median(d) < 3.0 and d.max() < 8.0        # measured: median 2.5 px, max 5.3 px
