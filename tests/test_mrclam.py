@@ -227,3 +227,31 @@ def test_the_known_map_beats_dead_reckoning_on_every_robot(excerpt_logs):
         dr = mrclam.dead_reckoning(log).metrics()
         lo = mrclam.localization(log).metrics()
         assert lo["ate_xy"] < 0.5 and lo["ate_xy"] < dr["ate_xy"], (r, lo, dr)
+
+
+def test_the_logs_noise_reaches_the_runners(folder):
+    from slamlib.models import motion_jacobians
+
+    Q = np.array([[0.01, 0.008], [0.008, 0.01]])
+    log = mrclam.load(folder, 1).with_noise(Q=Q, sigma_range0=0.1, sigma_range_per_m=0.02,
+                                            sigma_bearing=0.01)
+    np.testing.assert_array_equal(log.Q(), Q)
+    np.testing.assert_allclose(log.sensor().R(2.0), np.diag([0.14 ** 2, 0.01 ** 2]))
+    tr = mrclam.dead_reckoning(log)
+    # the covariance propagated by hand: P <- A P A^T + W Q W^T at every step
+    P = np.diag([1e-6, 1e-6, 1e-6])
+    u, dt = log.controls()
+    for k in range(dt.size):
+        A, W = motion_jacobians(tr.x[k], u[k], dt[k], log.wheel_base)
+        P = A @ P @ A.T + W @ Q @ W.T
+    np.testing.assert_allclose(tr.P[-1], P, rtol=1e-10, atol=1e-15)
+    assert mrclam.load(folder, 1).with_noise(sigma_wheel=0.2).Q()[0, 0] == pytest.approx(0.04)
+
+
+def test_select_readings_keeps_the_timeline(folder):
+    log = mrclam.load(folder, 1)
+    near = log.select_readings(log.camera.rho < 3.0)
+    assert list(near.camera.id) == [81]
+    np.testing.assert_array_equal(near.enc_t, log.enc_t)
+    with pytest.raises(ValueError, match="keep: expected 2"):
+        log.select_readings([True])
