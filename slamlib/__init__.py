@@ -24,6 +24,8 @@ One module per idea:
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
 - ``exercises``    the exercise checkers
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files
+- ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
+                   noise identified against their ground truth (``identify``), chapter 10
 """
 
 __version__ = "0.1.0"

@@ -57,8 +57,10 @@ from .worlds import DATA_DIR, Marker, World
 __all__ = [
     "MIN_OPENCV", "R_BASE_CAM", "DEFAULT_BASE_HEIGHT", "CALIBRATION_DIR",
     "CalibrationFormatError", "Camera", "load_camera", "save_camera", "default_camera",
+    "read_opencv_calibration", "CharucoCalibration", "calibrate_charuco",
     "camera_to_range_bearing", "base_pose_matrix",
-    "get_dictionary", "marker_image", "marker_object_points", "marker_corners_world",
+    "get_dictionary", "read_dictionary", "marker_image", "marker_object_points",
+    "marker_corners_world",
     "project_marker_corners", "visible_markers", "render_view",
     "Detections", "make_detector", "estimate_marker_pose", "detect_markers",
     "CameraMarkerSensor", "match_ground_truth",
@@ -253,6 +255,87 @@ def load_camera(path="realsense_640x480") -> Camera:
     return camera_from_dict(d, where=str(p))
 
 
+def read_opencv_calibration(path, width: int | None = None, height: int | None = None,
+                            T_base_cam=None) -> Camera:
+    """A camera from an OpenCV calibration yml (``camera_matrix``, ``distortion_coefficients``,
+    optionally ``image_width``/``image_height``), e.g. OpenCV's tutorial files (chapter 02).
+
+    ``T_base_cam`` defaults to the identity (the camera frame is the "robot" frame);
+    ``width``/``height`` are needed when the file does not give them.
+    """
+    path = Path(path)
+    if not path.is_file():
+        raise CalibrationFormatError(f"{path}: missing file")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        K = fs.getNode("camera_matrix").mat()
+        dist = fs.getNode("distortion_coefficients").mat()
+        w = fs.getNode("image_width")
+        h = fs.getNode("image_height")
+        w = int(w.real()) if not w.empty() else width
+        h = int(h.real()) if not h.empty() else height
+    finally:
+        fs.release()
+    if K is None or K.shape != (3, 3):
+        raise CalibrationFormatError(f"{path}: field 'camera_matrix': expected a 3x3 matrix")
+    if dist is None or dist.size not in (4, 5):
+        raise CalibrationFormatError(f"{path}: field 'distortion_coefficients': expected "
+                                     f"4 or 5 coefficients [k1, k2, p1, p2(, k3)]")
+    if w is None or h is None:
+        raise CalibrationFormatError(f"{path}: no image_width/image_height: pass width and "
+                                     f"height")
+    T = np.eye(4) if T_base_cam is None else T_base_cam
+    try:
+        return Camera(K, np.r_[dist.reshape(-1), 0.0][:5], T, w, h, name=path.stem)
+    except (ValueError, TypeError) as exc:
+        raise CalibrationFormatError(f"{path}: {exc}") from exc
+
+
+@dataclass(frozen=True)
+class CharucoCalibration:
+    """What :func:`calibrate_charuco` found: ``rms`` reprojection error (px), ``K``, ``dist``
+    (5,), the ChArUco corners found in each image, and the image size ``(width, height)``."""
+
+    rms: float
+    K: np.ndarray
+    dist: np.ndarray
+    corners_per_image: tuple
+    size: tuple
+
+
+def calibrate_charuco(images, squares=(5, 7), square_length: float = 0.04,
+                      marker_length: float = 0.02, dictionary="DICT_6X6_250",
+                      min_corners: int = 6) -> CharucoCalibration:
+    """Calibrate a camera from photos of a ChArUco board with OpenCV (chapter 02).
+
+    ``cv2.aruco.CharucoDetector(board).detectBoard`` finds the chessboard
+    corners between the markers in each image, ``board.matchImagePoints``
+    pairs them with the board's 3-D points, and ``cv2.calibrateCamera`` fits
+    ``K`` and the distortion ``[k1, k2, p1, p2, k3]``. Images with fewer than
+    ``min_corners`` corners are left out.
+    """
+    board = cv2.aruco.CharucoBoard(tuple(int(n) for n in squares), float(square_length),
+                                   float(marker_length), get_dictionary(dictionary))
+    detector = cv2.aruco.CharucoDetector(board)
+    objs, pix, counts, size = [], [], [], None
+    for img in images:
+        gray = _as_gray(img)
+        size = (gray.shape[1], gray.shape[0]) if size is None else size
+        if (gray.shape[1], gray.shape[0]) != size:
+            raise ValueError(f"images: expected all of size {size}, got {gray.shape[::-1]}")
+        cc, ci, _, _ = detector.detectBoard(gray)
+        n = 0 if ci is None else len(ci)
+        counts.append(n)
+        if n >= min_corners:
+            o, p = board.matchImagePoints(cc, ci)
+            objs.append(o)
+            pix.append(p)
+    if len(objs) < 1:
+        raise ValueError(f"images: no image shows at least {min_corners} ChArUco corners")
+    rms, K, dist, _, _ = cv2.calibrateCamera(objs, pix, size, None, None)
+    return CharucoCalibration(float(rms), K, dist.reshape(-1)[:5], tuple(counts), size)
+
+
 def save_camera(camera: Camera, path) -> None:
     """Write a camera as indented JSON."""
     Path(path).write_text(json.dumps(camera.to_dict(), indent=2) + "\n", encoding="utf-8")
@@ -288,10 +371,36 @@ def camera_to_range_bearing(p_cam, T_base_cam) -> np.ndarray:
 
 
 # --------------------------------------------------------------------------- markers
+def _is_dictionary_file(dictionary) -> bool:
+    return isinstance(dictionary, Path) or (
+        isinstance(dictionary, str) and dictionary.lower().endswith((".yml", ".yaml")))
+
+
+def read_dictionary(path) -> cv2.aruco.Dictionary:
+    """A custom ArUco dictionary from an OpenCV yml file (``nmarkers``, ``markersize``,
+    ``marker_0``...), as OpenCV writes it (chapter 02's real photos)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"dictionary: no such dictionary file {str(path)!r}")
+    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    try:
+        d = cv2.aruco.Dictionary()
+        ok = fs.isOpened() and d.readDictionary(fs.root())
+    finally:
+        fs.release()
+    if not ok:
+        raise ValueError(f"dictionary: {str(path)!r} is not an ArUco dictionary file "
+                         f"(expected nmarkers, markersize and marker_0...)")
+    return d
+
+
 def get_dictionary(dictionary="DICT_ARUCO_ORIGINAL"):
-    """An ArUco dictionary from its name (``"DICT_ARUCO_ORIGINAL"``), cv2 constant or object."""
+    """An ArUco dictionary from its name (``"DICT_ARUCO_ORIGINAL"``), cv2 constant, object,
+    or the path of a yml file holding a custom one (:func:`read_dictionary`)."""
     if isinstance(dictionary, cv2.aruco.Dictionary):
         return dictionary
+    if _is_dictionary_file(dictionary):
+        return read_dictionary(dictionary)
     if isinstance(dictionary, str):
         code = getattr(cv2.aruco, dictionary, None)
         if not dictionary.startswith("DICT_") or not isinstance(code, int):
@@ -691,10 +800,13 @@ def make_detector(dictionary="DICT_ARUCO_ORIGINAL", refine: str = "subpix"):
     if refine not in ("none", "subpix", "contour", "apriltag"):
         raise ValueError(f"refine: expected 'none', 'subpix', 'contour' or 'apriltag', "
                          f"got {refine!r}")
+    if _is_dictionary_file(dictionary):
+        dictionary = read_dictionary(dictionary)
     get_dictionary(dictionary)                 # check it
-    key = _dict_key(dictionary)
-    if isinstance(key, (str, int)):
-        return _detector(key, refine)
+    if isinstance(dictionary, str):
+        return _detector(dictionary, refine)
+    if isinstance(dictionary, (int, np.integer)):   # a code (an object's id key is not one)
+        return _detector(int(dictionary), refine)
     params = cv2.aruco.DetectorParameters()
     params.cornerRefinementMethod = getattr(cv2.aruco, f"CORNER_REFINE_{refine.upper()}")
     return cv2.aruco.ArucoDetector(dictionary, params)
@@ -769,7 +881,9 @@ def detect_markers(gray, camera: Camera, marker_length: float,
     camera : Camera
     marker_length : float
         Side of the black square (m).
-    dictionary : str, int or cv2.aruco.Dictionary
+    dictionary : str, int, cv2.aruco.Dictionary or path
+        A predefined dictionary's name or cv2 constant, a dictionary object,
+        or the path of an OpenCV yml file with a custom dictionary.
 
     Returns
     -------
