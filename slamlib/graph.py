@@ -58,7 +58,8 @@ from .validate import as_covariance, as_matrix, as_vector
 __all__ = ["pose_to_gtsam", "pose_from_gtsam", "pose_cov_to_gtsam", "pose_cov_from_gtsam",
            "point_to_gtsam", "point_from_gtsam", "point_cov_to_gtsam", "point_cov_from_gtsam",
            "reading_to_gtsam", "integrate_odometry", "Odometry", "Problem", "build_problem",
-           "factor_graph", "smooth", "GraphTrace", "information_matrix", "METHODS", "ROBUST"]
+           "factor_graph", "smooth", "GraphMap", "GraphTrace", "information_matrix", "METHODS",
+           "ROBUST"]
 
 #: The solvers of :func:`smooth`.
 METHODS = ("batch", "isam2")
@@ -401,11 +402,36 @@ def _initial_values(problem: Problem) -> gtsam.Values:
 
 # --------------------------------------------------------------------------- the result
 @dataclass
+class GraphMap:
+    """The smoother's map in the shape of ``EKFSLAM``'s (``landmarks``, ``landmark_cov``),
+    so that what reads a filter's map (plots, :func:`slamlib.experiments.map_error`) reads it.
+    """
+
+    landmark_ids: list
+    x: np.ndarray
+    P: np.ndarray
+
+    @property
+    def n_landmarks(self) -> int:
+        return len(self.landmark_ids)
+
+    @property
+    def landmarks(self) -> dict[int, np.ndarray]:
+        """Mapped landmarks, id -> position (z-down)."""
+        return {int(i): self.x[k].copy() for k, i in enumerate(self.landmark_ids)}
+
+    def landmark_cov(self, marker_id: int) -> np.ndarray:
+        """Marginal covariance (2x2, z-down) of one landmark."""
+        return self.P[self.landmark_ids.index(int(marker_id))].copy()
+
+
+@dataclass
 class GraphTrace(Trace):
     """A :class:`slamlib.experiments.Trace` of the smoothed poses, with the map.
 
     ``x``, ``P`` are the final estimate of every pose node and its marginal
-    covariance given ALL the readings (smoothed), z-down, next to the truth.
+    covariance given ALL the readings (smoothed), z-down, next to the truth;
+    ``filter`` is the map (:class:`GraphMap`).
 
     Extra attributes
     ----------------
@@ -446,11 +472,11 @@ class GraphTrace(Trace):
     @property
     def landmarks(self) -> dict[int, np.ndarray]:
         """Mapped landmarks, id -> position (z-down), as ``EKFSLAM.landmarks``."""
-        return {int(i): self.landmark_x[k].copy() for k, i in enumerate(self.landmark_ids)}
+        return self.filter.landmarks
 
     def landmark_cov(self, marker_id: int) -> np.ndarray:
         """Marginal covariance (2x2, z-down) of one landmark."""
-        return self.landmark_P[self.landmark_ids.index(int(marker_id))].copy()
+        return self.filter.landmark_cov(marker_id)
 
     def metrics(self, world=None) -> dict[str, float]:
         """As :meth:`Trace.metrics` (on the smoothed poses), and the map's figures."""
@@ -460,7 +486,7 @@ class GraphTrace(Trace):
                "final_xy_error": float(np.hypot(*self.error[-1, :2])),
                "landmarks": float(len(self.landmark_ids))}
         if world is not None:
-            out["map_rmse"] = map_error(self, world)[0]
+            out["map_rmse"] = map_error(self.filter, world)[0]
         return out
 
 
@@ -565,8 +591,8 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
                      step_seconds=np.array(secs), step_reeliminated=np.array(reel))
     return GraphTrace(t=problem.t.copy(), kind=problem.kind.copy(), x=X, P=P,
                       truth=run.truth_at(problem.t), method=method, landmark_ids=ids,
-                      landmark_x=L, landmark_P=LP, problem=problem, graph=graph, values=values,
-                      **extra)
+                      landmark_x=L, landmark_P=LP, filter=GraphMap(ids, L, LP), problem=problem,
+                      graph=graph, values=values, **extra)
 
 
 def information_matrix(trace: GraphTrace) -> tuple[np.ndarray, list[str]]:
