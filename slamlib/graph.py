@@ -507,7 +507,7 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
            by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None,
            max_steps: int | None = None, odometry_floor: float = 1e-10,
            robust: str | None = None, robust_k: float = 1.345,
-           relinearize_threshold: float = 0.001, final_iterations: int = 3) -> GraphTrace:
+           relinearize_threshold: float = 0.01, final_iterations: int = 3) -> GraphTrace:
     """Smoothing and mapping of a run with GTSAM (chapter 11).
 
     Parameters
@@ -547,7 +547,10 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
     if method == "batch":
         graph = factor_graph(problem, robust=robust, robust_k=robust_k)
         params = gtsam.LevenbergMarquardtParams()
-        params.setMaxIterations(100)
+        params.setMaxIterations(200)
+        # far from the optimum (a drifted dead reckoning) LM may need a large damping
+        # before a step lowers the error; GTSAM's default ceiling (1e5) stops it at once
+        params.setlambdaUpperBound(1e12)
         params.setRelativeErrorTol(1e-10)
         params.setAbsoluteErrorTol(1e-12)
         params.setLinearSolverType("MULTIFRONTAL_QR")
