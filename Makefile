@@ -52,6 +52,7 @@ lab: $(STAMP)
 bench: $(STAMP)
 	$(PY) bench/bench_ekf.py
 	$(PY) bench/bench_vision.py
+	$(PY) bench/bench_graph.py
 
 clean:
 	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache
