@@ -260,7 +260,8 @@ class Problem:
 
 def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture",
                   use_sensor_R: bool = True, max_time: float | None = None,
-                  max_steps: int | None = None, odometry_floor: float = 1e-10) -> Problem:
+                  max_steps: int | None = None, odometry_floor: float = 1e-10,
+                  min_interval: float = 0.0) -> Problem:
     """The factor graph's contents for ``run``, from the same events the EKF sees.
 
     The run's events (:meth:`slamlib.runs.Run.events`) are read in the order
@@ -275,6 +276,9 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
     diagonal: the Euler model gives a robot that stands still no sideways noise at
     all, and an interval spent (almost) standing has a (nearly) singular covariance;
     the default, 1e-10 (10 um, 10 urad), is below the runs' stored precision.
+
+    ``min_interval`` (s): keyframes only; a camera frame less than this after the
+    last pose node is left out, with its readings (0: every frame is used).
     """
     if not np.isfinite(odometry_floor) or odometry_floor < 0.0:
         raise ValueError(f"odometry_floor: expected a variance >= 0, got {odometry_floor}")
@@ -314,6 +318,8 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
             continue
         obs = ev.obs
         if len(obs) == 0:
+            continue
+        if len(t) > 1 and ev.t - t[-1] < min_interval:
             continue
         if us:
             close(ev.t, "update")
@@ -506,7 +512,7 @@ def _collect(problem: Problem, values, marginal) -> tuple:
 def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
            by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None,
            max_steps: int | None = None, odometry_floor: float = 1e-10,
-           robust: str | None = None, robust_k: float = 1.345,
+           min_interval: float = 0.0, robust: str | None = None, robust_k: float = 1.345,
            relinearize_threshold: float = 0.01, final_iterations: int = 3) -> GraphTrace:
     """Smoothing and mapping of a run with GTSAM (chapter 11).
 
@@ -523,7 +529,7 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
         factors let the re-linearisation settle.
     Q, R, P0, by, use_sensor_R, max_time
         As for :func:`slamlib.experiments.slam`.
-    max_steps, odometry_floor
+    max_steps, odometry_floor, min_interval
         See :func:`build_problem`.
     robust : {"huber", "cauchy"}, optional
         A robust kernel (threshold ``robust_k`` in sigmas) on the readings.
@@ -542,7 +548,7 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
         raise ValueError(f"robust: expected one of {ROBUST} or None, got {robust!r}")
     problem = build_problem(run, Q=Q, R=R, P0=P0, by=by, use_sensor_R=use_sensor_R,
                             max_time=max_time, max_steps=max_steps,
-                            odometry_floor=odometry_floor)
+                            odometry_floor=odometry_floor, min_interval=min_interval)
     extra: dict = {}
     if method == "batch":
         graph = factor_graph(problem, robust=robust, robust_k=robust_k)

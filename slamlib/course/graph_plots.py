@@ -57,18 +57,15 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     return ax
 
 
-def _pattern(ax, M, labels, blocks, title):
+def _pattern(ax, M, split, title):
+    """Non-zero entries black; a line at ``split`` (where the landmarks start)."""
     nz = np.abs(M) > 1e-12 * np.max(np.abs(M))
     ax.imshow(np.where(nz, 1.0, 0.0), cmap="Greys", vmin=0, vmax=1, interpolation="nearest")
-    for e in np.cumsum(blocks)[:-1]:
-        ax.axhline(e - 0.5, color="tab:orange", lw=0.4)
-        ax.axvline(e - 0.5, color="tab:orange", lw=0.4)
+    ax.axhline(split - 0.5, color="tab:orange", lw=1.0)
+    ax.axvline(split - 0.5, color="tab:orange", lw=1.0)
     ax.set_title(f"{title}\n{100 * nz.mean():.0f} % of entries non-zero", fontsize=9)
     ax.set_xticks([])
     ax.set_yticks([])
-    if labels:
-        starts = np.r_[0, np.cumsum(blocks)[:-1]]
-        ax.set_xticks(starts[labels[0]], labels[1], fontsize=6, rotation=90)
 
 
 def plot_sparsity(Lam, n_poses: int, n_landmarks: int, P_ekf, *, axes=None):
@@ -81,16 +78,14 @@ def plot_sparsity(Lam, n_poses: int, n_landmarks: int, P_ekf, *, axes=None):
     if axes is None:
         _, axes = plt.subplots(1, 3, figsize=(11, 4.0), dpi=DPI,
                                gridspec_kw={"width_ratios": [2.2, 1, 1]})
-    blocks = [3] * n_poses + [2] * n_landmarks
-    _pattern(axes[0], Lam, None, blocks,
+    _pattern(axes[0], Lam, 3 * n_poses,
              f"graph: information of {n_poses} poses + {n_landmarks} landmarks")
-    axes[0].set_xlabel("poses in time order, then landmarks")
-    eb = [3] + [2] * ((P_ekf.shape[0] - 3) // 2)
-    _pattern(axes[1], P_ekf, None, eb, "EKF: covariance P\n(pose + landmarks)")
-    _pattern(axes[2], np.linalg.inv(P_ekf), None, eb, "EKF: information P^-1\n(past poses "
+    axes[0].set_xlabel("poses in time order | landmarks")
+    _pattern(axes[1], P_ekf, 3, "EKF: covariance P\n(pose + landmarks)")
+    _pattern(axes[2], np.linalg.inv(P_ekf), 3, "EKF: information P^-1\n(past poses "
              "marginalised)")
     for a in axes[1:]:
-        a.set_xlabel("pose, then landmarks")
+        a.set_xlabel("pose | landmarks")
     return axes
 
 
