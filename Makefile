@@ -56,3 +56,8 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache
+
+## Regenerate chapter 11's stored study data/studies/graph_arena.json (200 runs, 2 processes)
+.PHONY: graph-study
+graph-study: $(STAMP)
+	$(PY) -m slamlib.course.graph_study
