@@ -257,3 +257,18 @@ def test_bad_arguments(arena):
         graph.smooth(arena, "batch", max_steps=0)
     with pytest.raises(ValueError, match="marker_id"):
         graph.landmark_key(-1)
+
+
+def test_a_robust_kernel_ignores_gross_outliers():
+    # two readings of the exact run off by 1.0 and -0.8 m (20 and 16 sigma): least squares
+    # bends the trajectory towards them, a Cauchy kernel all but ignores them
+    run = exact_run()
+    rho = run.camera.rho.copy()
+    rho[40] += 1.0
+    rho[150] -= 0.8
+    bad = dataclasses.replace(run, camera=dataclasses.replace(run.camera, rho=rho))
+    plain = graph.smooth(bad, "batch", Q=1e-4 * np.eye(2))
+    robust = graph.smooth(bad, "batch", Q=1e-4 * np.eye(2), robust="cauchy")
+    e_plain = np.max(np.hypot(*plain.error[:, :2].T))
+    e_robust = np.max(np.hypot(*robust.error[:, :2].T))
+    assert e_plain > 1e-4 and e_robust < 5e-5 and e_robust < 0.1 * e_plain
