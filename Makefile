@@ -6,7 +6,7 @@ STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
-        student runs lab bench clean studies evidence association-study
+        student runs lab bench clean studies evidence association-study graph-study
 
 venv: $(STAMP)
 
@@ -84,3 +84,10 @@ bench: $(STAMP)
 
 clean:
 	rm -rf $(VENV) figures student book/_build .notebooks-failed .pytest_cache .hypothesis .ruff_cache
+	$(PY) bench/bench_graph.py
+
+	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache
+
+## Regenerate chapter 11's stored study data/studies/graph_arena.json (200 runs, 2 processes)
+graph-study: $(STAMP)
+	$(PY) -m slamlib.course.graph_study

@@ -21,6 +21,7 @@ One module per idea:
 - ``studies``      Monte-Carlo NEES, marker-density and re-observation studies (chapter 06)
 - ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
+- ``graph``        the same runs as a factor graph, smoothed with GTSAM (batch, iSAM2; ch. 11)
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
 - ``exercises``    the exercise checkers
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files
