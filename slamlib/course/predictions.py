@@ -74,7 +74,7 @@ def check_prediction(answer, measure: Callable[[], tuple[object, str]], accept, 
     if choices is not None:
         measured = repr(value)
     else:
-        measured = f"{float(value):.3g}" + (f" {unit}" if unit else "")
+        measured = f"{float(value):.4g}" + (f" {unit}" if unit else "")
     say(f"{name}: you predicted {shown}; measured {measured} ({how}).")
     if ok:
         say(f"  Right: a justified prediction is {wanted}. {why}")
