@@ -13,6 +13,7 @@ import numpy as np
 import pytest
 
 from slamlib import ekf_textbook as tb
+from slamlib import metrics
 from slamlib.ekf import EKFSLAM, EKFLocalization, gate_threshold
 from slamlib.ekf_dense import DenseEKFLocalization, DenseEKFSLAM
 from slamlib.models import motion_jacobians, motion_model, observe, wrap_angle
@@ -149,6 +150,7 @@ def test_nees_wraps_the_heading_and_is_chi_square_on_average():
     est = truth + rng.standard_normal((T, 3)) @ L.T
     est[:, 2] = wrap_angle(est[:, 2])                      # half of them across the seam
     e = tb.nees(est, truth, P)
+    np.testing.assert_allclose(e, metrics.nees(metrics.pose_error(est, truth), P), rtol=1e-10)
     # mean 3, standard error sqrt(6/T) = 0.017
     assert abs(e.mean() - 3.0) < 0.07
     assert np.mean(est[:, 2] < 0) > 0.3
