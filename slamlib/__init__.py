@@ -14,6 +14,7 @@ One module per idea:
 - ``runs``         recorded runs (CSV + JSON) and their events
 - ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
+- ``ekf_textbook`` the EKF's equations one per line (predict, joint update, augment, NEES)
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
 - ``experiments``  a filter driven over a run, with its trace
 - ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)

@@ -3,10 +3,11 @@
 Usage: python tools/make_student.py notebooks student
 
 A cell tagged ``solution`` keeps its place but loses its source and outputs
-(a comment tells the student what to do). Every other cell is copied as it
-is, so the student notebook still runs from the top: each exercise's checker
-then reports that the student's function is not written yet, instead of
-raising.
+(a comment tells the student what to do). A cell tagged ``answer`` (the answer
+to a "More to try" item, usually markdown) is emptied the same way. Every
+other cell is copied as it is, so the student notebook still runs from the
+top: each exercise's checker then reports that the student's function is not
+written yet, instead of raising.
 """
 
 from __future__ import annotations
@@ -19,18 +20,25 @@ import nbformat
 
 PLACEHOLDER = ("# Solution removed in the student edition.\n"
                "# Write your answer in the cell above; the checker below tells you if it is right.")
+ANSWER_PLACEHOLDER = "*(answer removed in the student edition: try it yourself)*"
 
 
 def strip_solutions(nb: nbformat.NotebookNode) -> int:
-    """Empty the cells tagged ``solution``; return how many there were."""
+    """Empty the cells tagged ``solution`` or ``answer``; return how many there were."""
     n = 0
     for cell in nb.cells:
-        if "solution" in cell.metadata.get("tags", []):
-            n += 1
+        tags = cell.metadata.get("tags", [])
+        if "solution" in tags:
             cell.source = PLACEHOLDER if cell.cell_type == "code" else "*(solution removed)*"
-            if cell.cell_type == "code":
-                cell.outputs = []
-                cell.execution_count = None
+        elif "answer" in tags:
+            cell.source = (ANSWER_PLACEHOLDER if cell.cell_type == "markdown"
+                           else "# " + ANSWER_PLACEHOLDER)
+        else:
+            continue
+        n += 1
+        if cell.cell_type == "code":
+            cell.outputs = []
+            cell.execution_count = None
     return n
 
 
