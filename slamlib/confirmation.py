@@ -104,9 +104,23 @@ class ConfirmedSLAM(EKFSLAM):
         self.candidates: dict[int, Candidate] = {}
         self.frame = 0
         self._next_candidate = 0        # names of the candidates without ids
+        if self.association != "ids":   # chapter 09: readings without ids
+            self.update = self._update_anonymous
+
+    def _update_anonymous(self, ids, z, R=None) -> UpdateReport:
+        """``update(None, z)`` without ids (chapter 09): :meth:`EKFSLAM.update`'s association,
+        and each reading far from every landmark goes to :meth:`_unmatched` (a candidate)."""
+        frame = self.frame
+        self.frame += 1
+        try:
+            return EKFSLAM.update(self, ids, z, R)
+        except ValueError:
+            self.frame = frame                                       # unchanged after an error
+            raise
 
     def _sighting(self, pose, P_rr, z, R) -> tuple[np.ndarray, np.ndarray]:
-        """Position of a sighting and its covariance ``J1 P_rr J1^T + J2 R J2^T``."""
+        """Position of a sighting and its covariance ``J1 P_rr J1^T + J2 R J2^T`` (the same
+        as in :meth:`update`, which chapter 05 prints and therefore keeps its own lines)."""
         m = inverse_observe(pose, z)
         J1, J2 = inverse_observation_jacobians(pose, z)
         return m, J1 @ P_rr @ J1.T + J2 @ R @ J2.T
@@ -158,14 +172,6 @@ class ConfirmedSLAM(EKFSLAM):
         added) by this reading, ``"candidate"`` for one held back, ``"duplicate"``
         for a second reading of an unmapped id in the same call.
         """
-        if ids is None or self.association != "ids":                 # chapter 09: no ids
-            frame = self.frame
-            self.frame += 1
-            try:
-                return super().update(ids, z, R)
-            except ValueError:
-                self.frame = frame                                   # unchanged after an error
-                raise
         ids = _as_ids(ids)                                           # the base class's checks
         z = _as_readings(z, ids.shape[0])
         Rk = _as_reading_noise(R, self.R, ids.shape[0])
@@ -182,10 +188,13 @@ class ConfirmedSLAM(EKFSLAM):
                 status[i] = "duplicate"
                 continue
             seen.add(mid)
-            m, C = self._sighting(pose, P_rr, z[i], Rk[i])
+            m = inverse_observe(pose, z[i])
+            J1, J2 = inverse_observation_jacobians(pose, z[i])
+            C = J1 @ P_rr @ J1.T + J2 @ Rk[i] @ J2.T
             n = 1
             prev = self.candidates.get(mid)
-            if prev is not None and self._consistency(prev, m, C) < self.confirm_threshold:
+            if (prev is not None and self.frame - prev.frame <= self.max_gap
+                    and mahalanobis2(m - prev.position, C + prev.cov) < self.confirm_threshold):
                 n = prev.sightings + 1                               # consistent: one more
             if n >= self.n_confirm:
                 confirmed.append(i)
@@ -203,7 +212,6 @@ class ConfirmedSLAM(EKFSLAM):
 
         return dataclasses.replace(
             first, ids=ids, z=z, status=tuple(str(s) for s in status), new=status == "new",
-            matched=None,
             accepted=spread(first.accepted, False), d2=spread(first.d2, np.nan),
             innovation=spread(first.innovation, np.nan),
             predicted=spread(first.predicted, np.nan), S=spread(first.S, np.nan))

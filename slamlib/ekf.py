@@ -273,11 +273,9 @@ class UpdateReport:
     joint_nis : float
         ``y^T S^-1 y`` of the joint update (2m degrees of freedom, m = number
         accepted), NaN when nothing was fused: the NIS of chapter 03.
-    matched : numpy.ndarray of int, shape (k,)
-        The map id each reading was fused into or added as; -1 when it was not
-        used (rejected, duplicate, unknown, degenerate, candidate). With ids it
-        is ``ids`` where accepted or new (computed when not given); without ids
-        (``update(None, z)``, chapter 09) it is the association's answer.
+    matched_ids : numpy.ndarray of int, shape (k,), or None
+        Without ids (``update(None, z)``, chapter 09): the association's answer,
+        read through :attr:`matched`; None with ids.
     """
 
     ids: np.ndarray
@@ -292,13 +290,17 @@ class UpdateReport:
     threshold: float
     gate: float | None
     joint_nis: float
-    matched: np.ndarray | None = None
+    matched_ids: np.ndarray | None = None
 
-    def __post_init__(self):
-        if self.matched is None:
-            used = np.asarray(self.accepted, dtype=bool) | np.asarray(self.new, dtype=bool)
-            object.__setattr__(self, "matched",
-                               np.where(used, np.asarray(self.ids, dtype=np.int64), -1))
+    @property
+    def matched(self) -> np.ndarray:
+        """int (k,): the map id each reading was fused into or added as; -1 when not used
+        (rejected, duplicate, unknown, degenerate, candidate). With ids: ``ids`` where
+        accepted or new; without ids (chapter 09): the association's answer."""
+        if self.matched_ids is not None:
+            return self.matched_ids
+        used = np.asarray(self.accepted, dtype=bool) | np.asarray(self.new, dtype=bool)
+        return np.where(used, np.asarray(self.ids, dtype=np.int64), -1)
 
     def __len__(self) -> int:
         return len(self.ids)
@@ -329,6 +331,10 @@ class UpdateReport:
 
 # --------------------------------------------------------------------------- input checks
 def _as_ids(ids) -> np.ndarray:
+    if ids is None:
+        raise ValueError("ids: None (readings without ids) needs a filter built with "
+                         "association='nn' or association='jcbb'; this one has "
+                         "association='ids': pass the marker ids, update(ids, z)")
     try:
         a = np.asarray(ids)
     except (TypeError, ValueError) as exc:  # pragma: no cover - ragged input
@@ -683,9 +689,7 @@ class _EKFBase:
         reading was paired with or, when unpaired, to the one of smallest ``d2``.
         """
         if self.association == "ids":
-            raise ValueError("ids: None (readings without ids) needs a filter built with "
-                             "association='nn' or association='jcbb'; this one has "
-                             "association='ids': pass the marker ids, update(ids, z)")
+            _as_ids(None)                     # raises: None needs association "nn"/"jcbb"
         if ids is not None:
             raise ValueError(f"ids: this filter (association={self.association!r}) pairs the "
                              f"readings itself: call update(None, z) without ids, or build "
@@ -763,7 +767,7 @@ class _EKFBase:
         return UpdateReport(ids=np.full(k, -1, dtype=np.int64), z=z, status=tuple(status),
                             accepted=accepted, new=new, d2=d2, innovation=innov, predicted=pred,
                             S=S_all, threshold=self.threshold, gate=self.gate,
-                            joint_nis=joint_nis, matched=matched)
+                            joint_nis=joint_nis, matched_ids=matched)
 
     def _predicted_readings_cov(self, slots, Hp, Hl) -> np.ndarray:
         """``H P H^T`` (2N x 2N) of N predicted readings, cross terms included (for JCBB)."""

@@ -317,3 +317,17 @@ def test_stored_study_is_regenerated_by_the_code():
         for m in settings["methods"]:
             stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
             assert study_row(seed, m, settings) == stored
+
+
+def test_confirmed_slam_without_ids_errors_and_copies():
+    import copy
+
+    f = ConfirmedSLAM(np.zeros(3), np.eye(3) * 1e-4, Q, R)
+    with pytest.raises(ValueError, match="association='nn' or association='jcbb'"):
+        f.update(None, [[2.0, 0.1]])
+    assert f.frame == 0
+    g = ConfirmedSLAM(np.zeros(3), np.eye(3) * 1e-4, Q, R, association="jcbb")
+    g.update(None, [[2.0, 0.1]])
+    h = copy.deepcopy(g)
+    rep = h.update(None, [[2.0, 0.1]])                 # the copy's own candidates, not g's
+    assert rep.status == ("new",) and h.frame == 2 and g.frame == 1 and g.n_landmarks == 0
