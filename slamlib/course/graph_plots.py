@@ -110,7 +110,7 @@ def plot_nees_study(study, case: str, *, ax=None,
     ax.set_ylabel("average pose NEES (3 dof)")
     ax.set_title(title or f"{case}: sigma_wheel = {study.sigma_wheel(case)} m/s, "
                  f"{len(study.seeds)} seeds")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, lw=0.4, alpha=0.5)
     return ax
 
