@@ -89,16 +89,20 @@ def plot_sparsity(Lam, n_poses: int, n_landmarks: int, P_ekf, *, axes=None):
     return axes
 
 
-def plot_nees_study(study, case: str, *, ax=None, estimates=("ekf", "isam2_online", "batch"),
+def plot_nees_study(study, case: str, *, ax=None,
+                    estimates=("ekf", "ekf_ungated", "isam2_online", "batch"),
                     title: str | None = None):
     """Average pose NEES over the seeds against time, with the 95 % band."""
     if ax is None:
         _, ax = plt.subplots(figsize=(7.5, 3.6), dpi=DPI)
-    names = {"ekf": "EKF (filtered)", "isam2_online": "iSAM2 online (filtered)",
-             "batch": "batch smoother (smoothed)"}
-    colors = {"ekf": "tab:red", "isam2_online": "tab:green", "batch": "tab:blue"}
+    names = {"ekf": "EKF (filtered)", "ekf_ungated": "EKF without gate (filtered)",
+             "isam2_online": "iSAM2 online (filtered)", "batch": "batch smoother (smoothed)"}
+    styles = {"ekf": ("tab:red", "-"), "ekf_ungated": ("tab:orange", "--"),
+              "isam2_online": ("tab:green", "-"), "batch": ("tab:blue", "-")}
     for e in estimates:
-        ax.plot(study.grid, study.average_nees(case, e), color=colors[e], lw=1.4, label=names[e])
+        color, ls = styles[e]
+        ax.plot(study.grid, study.average_nees(case, e), color=color, ls=ls, lw=1.4,
+                label=names[e])
     lo, hi = study.band()
     ax.axhspan(lo, hi, color="0.85", zorder=0, label=f"95 % band, {len(study.seeds)} runs")
     ax.axhline(3.0, color="0.4", lw=0.8, ls="--")
@@ -106,7 +110,7 @@ def plot_nees_study(study, case: str, *, ax=None, estimates=("ekf", "isam2_onlin
     ax.set_ylabel("average pose NEES (3 dof)")
     ax.set_title(title or f"{case}: sigma_wheel = {study.sigma_wheel(case)} m/s, "
                  f"{len(study.seeds)} seeds")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.01, 1.0))
     ax.grid(True, lw=0.4, alpha=0.5)
     return ax
 
