@@ -1080,9 +1080,9 @@ class FEJEKFSLAM(EKFSLAM):
     enter the observability argument.
     """
 
-    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
-                 gate: float | None = 0.95, capacity: int = 16):
-        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+    def __init__(self, *args, **kwargs):
+        # exactly EKFSLAM's constructor (whatever options it has)
+        super().__init__(*args, **kwargs)
         self._propagated = self._x[:3].copy()     # x_{k|k-1}: the pose the last predict made
         self._first: dict[int, np.ndarray] = {}   # state slot -> first estimate of the landmark
 
@@ -1165,12 +1165,11 @@ class IdealEKFSLAM(EKFSLAM):
         How the predicted reading is formed (see above).
     """
 
-    def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
-                 gate: float | None = 0.95, capacity: int = 16, *, truth, landmarks,
-                 t0: float = 0.0, innovation: str = "truth"):
+    def __init__(self, *args, truth, landmarks, t0: float = 0.0, innovation: str = "truth",
+                 **kwargs):
         if not callable(truth):
             raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
-        super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity)
+        super().__init__(*args, **kwargs)               # EKFSLAM's constructor
         self._truth = truth
         self._true_map = _as_landmark_map(landmarks)
         self.t = as_finite_scalar("t0", t0)

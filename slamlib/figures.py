@@ -193,6 +193,23 @@ def course_nees_monte_carlo(ctx: _Context):
     return fig
 
 
+def course_nees_fej(ctx: _Context):
+    """Chapter 06: EKF SLAM, the ideal EKF and FEJ over 100 seeds (stored by ``make studies``)."""
+    from . import studies
+    stored = studies.load_ch06_studies()
+    names = {"slam": "EKF SLAM", "ideal": "ideal (Jacobians at the truth)", "fej": "FEJ EKF SLAM"}
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plotting.DPI)
+    for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10"),
+                                        ("laps_0.10", "three laps, sigma_wheel 0.10"))):
+        ms = stored["studies"][key]["methods"]
+        curves = {names[m]: (np.array(s["t"]), np.array(s["avg"]), np.array(s["avg_heading"]))
+                  for m, s in ms.items()}
+        plotting.plot_nees_averages(curves, len(stored["seeds"]), axes=row)
+        row[0].set_title(title, fontsize=9)
+    fig.tight_layout()
+    return fig
+
+
 def course_camera_delay(ctx: _Context):
     """Chapter 08: 0.3 s late frames fused on arrival (left) and at their capture time
     (right), and the errors of both against the latency (bottom)."""
@@ -262,6 +279,7 @@ FIGURES: dict[str, Callable] = {
     "course_random_world_slam": course_random_world_slam,
     "course_vision_error_study": course_vision_error_study,
     "course_nees_monte_carlo": course_nees_monte_carlo,
+    "course_nees_fej": course_nees_fej,
     "course_camera_delay": course_camera_delay,
     "course_exploration": course_exploration,
     "course_exploration_history": course_exploration_history,

@@ -562,7 +562,8 @@ def plot_nees_monte_carlo(studies, *, axes=None, prob: float = 0.95, title: str 
         fig, axes = plt.subplots(1, 2, figsize=(11, 3.6), dpi=DPI)
     fig = axes[0].figure
     n = studies[0].n_runs
-    names = {"localization": "map-based EKF", "slam": "EKF SLAM"}
+    names = {"localization": "map-based EKF", "slam": "EKF SLAM", "fej": "FEJ EKF SLAM",
+             "ideal": "ideal EKF SLAM"}
     for ax, heading, dof in ((axes[0], False, 3), (axes[1], True, 1)):
         lo, hi = chi2_band(dof, n, prob)
         t_all = np.concatenate([s.t for s in studies])

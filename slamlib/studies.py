@@ -277,24 +277,28 @@ class DensityRow:
 
 def density_sweep(counts: Sequence[int] = (4, 8, 16, 32), seeds: Iterable[int] = range(5), *,
                   extent=DENSITY_EXTENT, sigma_wheel: float = 0.02,
-                  gate: float | None = 0.95) -> list[DensityRow]:
+                  gate: float | None = 0.95, workers: int = 1) -> list[DensityRow]:
     """EKF SLAM on :func:`random_loop_run` for every marker count and seed.
 
     Returns one :class:`DensityRow` per (count, seed), counts outermost, with
     the run's :func:`landmark_placement`. ``map_rmse`` is NaN when no landmark
-    was mapped.
+    was mapped. ``workers`` processes share the runs (the same rows for any
+    number of workers).
     """
     seeds = tuple(int(s) for s in seeds)
-    rows = []
-    for n in counts:
-        for s in seeds:
-            world, run = random_loop_run(int(n), s, extent=extent, sigma_wheel=sigma_wheel)
-            tr = ex.slam(run, gate=gate)
-            m = tr.metrics(world)
-            rows.append(DensityRow(int(n), s, m["ate_xy"], m["final_xy_error"],
-                                   m.get("map_rmse", float("nan")), int(m["landmarks"]),
-                                   m["mean_nees"], tuple(landmark_placement(tr, world))))
-    return rows
+    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
+        raise ValueError(f"workers: expected a positive integer, got {workers!r}")
+    jobs = [(int(n), s, extent, sigma_wheel, gate) for n in counts for s in seeds]
+    return _map(_density_row, jobs, int(workers))
+
+
+def _density_row(job: tuple) -> DensityRow:
+    n, s, extent, sigma_wheel, gate = job
+    world, run = random_loop_run(n, s, extent=extent, sigma_wheel=sigma_wheel)
+    tr = ex.slam(run, gate=gate)
+    m = tr.metrics(world)
+    return DensityRow(n, s, m["ate_xy"], m["final_xy_error"], m.get("map_rmse", float("nan")),
+                      int(m["landmarks"]), m["mean_nees"], tuple(landmark_placement(tr, world)))
 
 
 # --------------------------------------------------------------------------- loop closure
