@@ -23,6 +23,8 @@ One module per idea:
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
 - ``exercises``    the exercise checkers
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files
+- ``course``       the course's own machinery (100-seed studies in ``data/evidence``, their plots);
+                   the library never imports it
 """
 
 __version__ = "0.1.0"
