@@ -67,6 +67,7 @@ association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
 
 ## Regenerate the stored 100-seed studies in data/evidence (bit for bit; about 30 min on 2 cores)
+## Regenerate the stored 100-seed studies in data/evidence (bit for bit; 20-60 min on 2 cores)
 evidence: $(STAMP)
 	$(PY) tools/make_evidence.py --workers 2
 

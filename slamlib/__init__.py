@@ -28,6 +28,8 @@ One module per idea:
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files
 - ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
                    noise identified against their ground truth (``identify``), chapter 10
+- ``course``       the course's own machinery (100-seed studies in ``data/evidence``, their plots);
+                   the library never imports it
 """
 
 __version__ = "0.1.0"

@@ -28,7 +28,8 @@ def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | 
         ax.axvline(expected, color="k", ls=":", lw=1.0, label=f"consistent filter: {expected:g}")
     for (label, x), c in zip((marks or {}).items(), ("tab:red", "tab:green", "tab:purple")):
         k = int(np.sum(v >= x))
-        ax.axvline(x, color=c, lw=1.5, ls="--", label=f"{label}: {x:.2f} ({k} of {v.size} >=)")
+        ax.axvline(x, color=c, lw=1.5, ls="--",
+                   label=f"{label}: {x:.2f} ({k} of {v.size} runs at or above)")
     ax.set_xlabel(xlabel)
     ax.set_ylabel("runs")
     ax.grid(True, lw=0.4, alpha=0.5)
