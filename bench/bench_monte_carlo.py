@@ -21,7 +21,6 @@ from __future__ import annotations
 import argparse
 import os
 import platform
-import sys
 import time
 from pathlib import Path
 
@@ -149,7 +148,6 @@ def chapter_times() -> list[tuple[str, float]]:
             except Exception as exc:  # a benchmark reports, it does not fail
                 out.append((f"{path.name} (failed: {type(exc).__name__})",
                             time.perf_counter() - t0))
-            print(f"  {out[-1][0]}: {out[-1][1]:.1f} s", file=sys.stderr, flush=True)
     finally:
         if env_backend is not None:
             os.environ["MPLBACKEND"] = env_backend
