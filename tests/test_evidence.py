@@ -16,6 +16,7 @@ from slamlib.runs import load_run
 
 @pytest.mark.parametrize("name, seeds", [("arena_localization", (1, 64)),
                                          ("arena_slam", (1, 37)),
+                                         ("arena_slam_misreads", (42,)),
                                          ("arena_camera", (23,)),
                                          ("explore_world5", (5,))])
 def test_stored_study_recomputes_exactly(name, seeds):

@@ -18,6 +18,8 @@ Studies (:data:`STUDIES`):
   camera's noise.
 - ``arena_slam``: EKF SLAM (chapter 05) on ``arena_loop``, seeds 1-100, the
   pose and heading NEES on a 0.5 s grid.
+- ``arena_slam_misreads``: EKF SLAM on ``arena_loop_misreads``, seeds 1-100:
+  no gate, gate 0.95, gate with confirmed landmarks (ATE, map).
 - ``explore_world5``: chapter 07's closed-loop exploration, simulation seeds
   1-100 (seed 5 is the chapter's run): the NEES and the largest heading error
   in units of its sigma.
@@ -50,7 +52,7 @@ __all__ = ["EVIDENCE_DIR", "FORMAT", "STUDIES", "SEEDS", "GRID_STEP", "GATES",
            "CAMERA_VARIANTS", "CAMERA_LAGS", "ModelRLocalization", "decimate", "trace_stats",
            "gate_stats", "localization_seed", "slam_seed", "camera_run", "camera_seed",
            "error_correlation", "run_study", "save_study", "load_study", "column", "rank",
-           "pooled_correlation", "nees_study", "explore_seed"]
+           "pooled_correlation", "nees_study", "explore_seed", "slam_misreads_seed"]
 
 #: Where the stored studies live.
 EVIDENCE_DIR = DATA_DIR / "evidence"
@@ -221,6 +223,31 @@ def slam_seed(seed: int) -> dict:
     return {"slam": trace_stats(slam(scenario("arena_loop", seed=seed)), series=True)}
 
 
+def slam_misreads_seed(seed: int) -> dict:
+    """EKF SLAM on ``arena_loop_misreads`` with ``seed``: no gate, gate 0.95, and gate 0.95
+    with confirmed landmarks (:func:`slamlib.confirmation.confirmed_slam`, chapter 05).
+
+    Per filter: the ATE, the largest position error, the landmarks mapped, how many of them
+    are ids the world does not have, and the map's RMS error over the true ids.
+    """
+    from ..confirmation import confirmed_slam
+    from ..experiments import map_error, slam
+    from ..sim import scenario
+
+    run = scenario("arena_loop_misreads", seed=seed)
+    world = run.world()
+    out = {}
+    for name, tr in (("none", slam(run, gate=None)), ("0.95", slam(run, gate=0.95)),
+                     ("confirmed 0.95", confirmed_slam(run, gate=0.95))):
+        rms, per_id = map_error(tr.filter, world)
+        out[name] = {"ate_xy": tr.metrics()["ate_xy"],
+                     "max_xy_error": float(np.max(np.hypot(*tr.error[:, :2].T))),
+                     "landmarks": len(per_id),
+                     "not_in_world": int(sum(not np.isfinite(e) for e in per_id.values())),
+                     "map_rmse": rms}
+    return out
+
+
 def camera_run(seed: int) -> Run:
     """``arena_loop`` re-simulated with ``seed``, its readings through the rendered camera."""
     from ..sim import scenario
@@ -300,6 +327,7 @@ def explore_seed(seed: int) -> dict:
 
 # --------------------------------------------------------------------------- studies and files
 STUDIES = {"arena_localization": localization_seed, "arena_slam": slam_seed,
+           "arena_slam_misreads": slam_misreads_seed,
            "arena_camera": camera_seed, "explore_world5": explore_seed}
 
 
