@@ -1,7 +1,15 @@
 """slamlib.course: the course's own machinery; it imports the library, never the reverse.
 
-- ``widgets``  interactive figures that also leave their default figure as a static output
-- ``filter_checkers``  checkers of the filter the student writes: block prediction, stacked H,
-  joint update, augmentation, NEES of a trace, the verdict over N runs
-- ``predictions``  predict, then measure: a committed expectation against a measurement
+- ``widgets``            interactive figures that also leave their default figure as an output
+- ``predictions``        predict, then measure: the student commits to a number, the cell measures
+- ``filter_checkers``    checkers for the filter the student writes (chapters 03-05, 08)
+- ``evidence``           the 100-seed studies behind chapters 02, 03, 05, 07 (``data/evidence``)
+- ``plots``              their figures
+- ``association_study``  chapter 09's study of ids / NN / JCBB (``data/studies``)
+- ``checkers_ch09``      chapter 09's exercise checker (the joint distance)
+- ``plots_ch09``         chapter 09's figures
+- ``ch10``               chapter 10's exercise checker and helpers (the MRCLAM robots)
+- ``graph_study``        chapter 11's study of EKF against batch and iSAM2 (``data/studies``)
+- ``graph_plots``        chapter 11's figures
+- ``graph_exercise``     chapter 11's exercise checker (a covariance into GTSAM's frame)
 """
