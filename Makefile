@@ -6,7 +6,8 @@ STAMP  := $(VENV)/.installed
 NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize.cfg --nbval-cell-timeout=300
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
-        student runs lab bench clean studies evidence association-study graph-study
+        student runs lab bench clean studies evidence association-study graph-study \
+        graph-mrclam
 
 venv: $(STAMP)
 
@@ -92,3 +93,7 @@ clean:
 ## Regenerate chapter 11's stored study data/studies/graph_arena.json (200 runs, 2 processes)
 graph-study: $(STAMP)
 	$(PY) -m slamlib.course.graph_study
+
+## Chapter 11's EKF / iSAM2 / batch on the five MRCLAM robots into data/studies (bit for bit)
+graph-mrclam: $(STAMP)
+	$(PY) -m slamlib.course.graph_mrclam

@@ -59,7 +59,7 @@ __all__ = ["pose_to_gtsam", "pose_from_gtsam", "pose_cov_to_gtsam", "pose_cov_fr
            "point_to_gtsam", "point_from_gtsam", "point_cov_to_gtsam", "point_cov_from_gtsam",
            "reading_to_gtsam", "integrate_odometry", "Odometry", "Problem", "build_problem",
            "factor_graph", "smooth", "GraphMap", "GraphTrace", "information_matrix", "METHODS",
-           "ROBUST"]
+           "ROBUST", "batch_marginals"]
 
 #: The solvers of :func:`smooth`.
 METHODS = ("batch", "isam2")
@@ -509,6 +509,45 @@ def _collect(problem: Problem, values, marginal) -> tuple:
             np.array(LP).reshape(-1, 2, 2))
 
 
+def batch_marginals(graph: gtsam.NonlinearFactorGraph, values: gtsam.Values,
+                    factorization: str = "auto"):
+    """The marginal covariance of each variable of ``graph`` linearised at ``values``.
+
+    Returns a function ``key -> covariance`` (GTSAM's frame). ``factorization``:
+    ``"cholesky"``: :class:`gtsam.Marginals` (Cholesky of the information matrix);
+    ``"qr"``: one iSAM2 elimination by QR of the whitened Jacobian at ``values``
+    (nothing re-linearised or moved), which does not square the condition number;
+    ``"auto"``: Cholesky, and QR if GTSAM finds the system indeterminate. A real
+    log (chapter 11's MRCLAM robots) has camera frames milliseconds apart: their
+    odometry factor is almost rigid (``odometry_floor`` sideways), and the
+    information matrix is too badly conditioned for Cholesky.
+    """
+    if factorization not in ("auto", "cholesky", "qr"):
+        raise ValueError(f"factorization: expected 'auto', 'cholesky' or 'qr', "
+                         f"got {factorization!r}")
+    if factorization != "qr":
+        try:
+            return gtsam.Marginals(graph, values).marginalCovariance
+        except RuntimeError:
+            if factorization == "cholesky":
+                raise
+    params = gtsam.ISAM2Params()
+    params.setFactorization("QR")
+    params.setRelinearizeThreshold(1e12)
+    isam = gtsam.ISAM2(params)
+    isam.update(graph, values)
+
+    def marginal(key: int) -> np.ndarray:
+        C = np.asarray(isam.marginalCovariance(key))
+        if not (np.all(np.isfinite(C)) and np.all(np.diag(C) > 0.0)):
+            name = gtsam.DefaultKeyFormatter(key)
+            raise RuntimeError(f"batch_marginals: the QR marginal of {name} is not a "
+                               "covariance (a factor with a singular covariance?)")
+        return C
+
+    return marginal
+
+
 def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
            by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None,
            max_steps: int | None = None, odometry_floor: float = 1e-10,
@@ -562,8 +601,7 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
         params.setLinearSolverType("MULTIFRONTAL_QR")
         opt = gtsam.LevenbergMarquardtOptimizer(graph, _initial_values(problem), params)
         values = opt.optimize()
-        marginals = gtsam.Marginals(graph, values)
-        X, P, ids, L, LP = _collect(problem, values, marginals.marginalCovariance)
+        X, P, ids, L, LP = _collect(problem, values, batch_marginals(graph, values))
         extra["iterations"] = int(opt.iterations())
     else:
         params = gtsam.ISAM2Params()

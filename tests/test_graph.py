@@ -278,3 +278,57 @@ def test_a_robust_kernel_ignores_gross_outliers():
     e_plain = np.max(np.hypot(*plain.error[:, :2].T))
     e_robust = np.max(np.hypot(*robust.error[:, :2].T))
     assert e_plain > 1e-4 and e_robust < 5e-5 and e_robust < 0.1 * e_plain
+
+
+# --------------------------------------------------------------------------- real logs (MRCLAM)
+@pytest.fixture(scope="module")
+def mrclam_log():
+    from slamlib.datasets import mrclam
+
+    return mrclam.load(mrclam.EXCERPT_DIR, 4, unknown_barcodes="drop", duration=100.0)
+
+
+def test_qr_marginals_equal_cholesky_where_both_work(arena):
+    g = graph.smooth(arena, "batch", max_time=20.0)
+    chol = graph.batch_marginals(g.graph, g.values, "cholesky")
+    qr = graph.batch_marginals(g.graph, g.values, "qr")
+    for key in (graph.pose_key(0), graph.pose_key(g.problem.n_poses - 1),
+                graph.landmark_key(g.landmark_ids[-1])):
+        np.testing.assert_allclose(qr(key), chol(key), rtol=1e-6, atol=1e-14)
+    with pytest.raises(ValueError, match="factorization"):
+        graph.batch_marginals(g.graph, g.values, "lu")
+
+
+def test_mrclam_log_frames_ms_apart_need_the_qr_marginals(mrclam_log):
+    # robot 4's first 100 s: camera frames a few ms apart make almost rigid odometry
+    # factors; Cholesky calls the system indeterminate, QR gives the marginals, and they
+    # are the inverse of the information matrix (computed independently, dense)
+    p = graph.build_problem(mrclam_log)
+    assert min(od.steps for od in p.odometry) == 1
+    b = graph.smooth(mrclam_log, "batch")
+    with pytest.raises(RuntimeError):
+        graph.batch_marginals(b.graph, b.values, "cholesky")(graph.pose_key(0))
+    Lam, _ = graph.information_matrix(b)
+    n = b.problem.n_poses
+    C = np.linalg.inv(Lam)
+    for i in (0, n // 2, n - 1):
+        Sigma = graph.pose_cov_to_gtsam(b.x[i], b.P[i])
+        np.testing.assert_allclose(C[3 * i:3 * i + 3, 3 * i:3 * i + 3], Sigma, rtol=1e-4,
+                                   atol=1e-10)
+
+
+def test_mrclam_log_without_readings_is_its_dead_reckoning(mrclam_log):
+    # the loader's irregular timeline (commands and reading times): the graph's chain of
+    # odometry factors is the filter's prediction over the same steps
+    from slamlib.datasets import mrclam
+
+    blind = mrclam_log.select_readings(np.zeros(len(mrclam_log.camera), dtype=bool))
+    g = graph.smooth(blind, "batch", max_steps=400)
+    dr = mrclam.dead_reckoning(mrclam_log)
+    assert not g.landmark_ids and len(g.t) > 10
+    k = np.searchsorted(dr.t, g.t)
+    np.testing.assert_array_equal(dr.t[k], g.t)
+    np.testing.assert_allclose(pose_error(g.x, dr.x[k]), 0.0, atol=1e-9)
+    # each odometry factor carries the default floor of 1e-10 on its diagonal (propagated)
+    np.testing.assert_allclose(g.P, dr.P[k], rtol=1e-6, atol=5e-8)
+    assert np.max(np.abs(g.P[-1])) > 1e-3

@@ -10,7 +10,8 @@ import numpy as np
 
 from ..plotting import DPI, plot_world, world_axes
 
-__all__ = ["plot_factor_graph", "plot_sparsity", "plot_nees_study", "plot_cost_per_step"]
+__all__ = ["plot_factor_graph", "plot_sparsity", "plot_nees_study", "plot_cost_per_step",
+           "plot_errors_at"]
 
 _POSE = {"color": "tab:blue"}
 _LM = {"color": "tab:purple"}
@@ -131,3 +132,37 @@ def plot_cost_per_step(map_size, ekf_work, isam2_work, *, ax=None, title: str | 
     if title:
         ax.set_title(title)
     return ax
+
+
+def plot_errors_at(axes, traces: dict, t, truth_at, colors=None, sigma_of=None):
+    """Position and heading errors of several estimates at the same times ``t`` (chapter 11).
+
+    ``traces``: name -> Trace; each is sampled at ``t`` (the state after its last
+    event at or before each time); ``truth_at``: the truth at any time (e.g.
+    ``log.truth_at``). ``sigma_of``: the name whose 2-sigma bounds are drawn dotted.
+    """
+    from ..metrics import pose_error
+    from .graph_mrclam import node_samples
+
+    a0, a1 = axes
+    t = np.asarray(t, dtype=float)
+    truth = truth_at(t)
+    colors = colors or {}
+    for name, tr in traces.items():
+        x, P, _ = node_samples(tr, t)
+        e = pose_error(x, truth)
+        c = colors.get(name)
+        a0.plot(t - t[0], np.hypot(*e[:, :2].T), lw=1.1, color=c, label=name)
+        a1.plot(t - t[0], np.degrees(e[:, 2]), lw=1.1, color=c, label=name)
+        if name == sigma_of:
+            a0.plot(t - t[0], 2 * np.sqrt(P[:, 0, 0] + P[:, 1, 1]), lw=0.8, ls=":", color=c)
+            s = 2 * np.degrees(np.sqrt(P[:, 2, 2]))
+            a1.plot(t - t[0], s, lw=0.8, ls=":", color=c)
+            a1.plot(t - t[0], -s, lw=0.8, ls=":", color=c)
+    a0.set_ylabel("position error (m)")
+    a1.set_ylabel("heading error (deg)")
+    a1.set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(True, lw=0.4, alpha=0.5)
+    a0.legend(fontsize=8, loc="upper right")
+    return axes

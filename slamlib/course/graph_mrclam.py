@@ -1,0 +1,269 @@
+"""Chapter 11, section 6: the EKF beside batch and incremental smoothing on the MRCLAM robots.
+
+For each robot of the UTIAS MRCLAM excerpt (chapter 10), the log is loaded with
+the noise chapter 10 identified from the OTHER four robots (leave one out:
+:func:`slamlib.course.ch10.identify_from`, :func:`slamlib.course.ch10.load_identified`),
+and the same log goes through:
+
+- ``ekf``: :func:`slamlib.datasets.mrclam.slam` (gate 0.95, chapter 10's pipeline; filtered);
+- ``ekf_ungated``: the same without the gate (every reading fused, as in the graph);
+- ``isam2_online``: :func:`slamlib.graph.smooth` ``(method="isam2")``, each pose's
+  estimate right after its own update (filtered: the readings up to then);
+- ``isam2``: iSAM2's final estimate (smoothed; it should equal ``batch``);
+- ``batch``: ``smooth(method="batch")`` (smoothed: every pose from ALL the readings);
+- ``huber``, ``cauchy``: the batch smoother with that robust kernel on the readings
+  (threshold :data:`ROBUST_K` whitened sigmas).
+
+Every estimate is judged against Vicon at the SAME times: the graph's pose
+nodes (the start, every camera frame with landmark readings, the end); the
+EKF's estimate at such a time is the one after its update there. The graph also gets a
+pose after every :data:`MAX_STEPS` filter steps without a frame (about 1 s), so the
+long blind stretches count as well. These times are not chapter 10's (every filter
+step), so the EKF's ATE here differs from chapter 10's table. Per estimate:
+the position ATE, the final position error, the mean pose NEES over those times,
+the map's RMS error against Vicon's landmarks. Per smoothed estimate also: how
+many readings end more than ``ROBUST_K`` whitened sigmas from the solution (the
+ones a Huber kernel down-weights) and how many of those chapter 10 flagged as
+outliers against Vicon.
+
+These are ONE run per robot (real data): no Monte-Carlo band applies.
+
+The five robots take longer than chapter 11 may spend, so ``make graph-mrclam``
+(``python -m slamlib.course.graph_mrclam``) stores the numbers in
+``data/studies/graph_mrclam.json`` (6 significant digits, no timings: bit for bit
+the same on every regeneration); ``tests/test_graph_mrclam.py`` recomputes a robot
+and compares.
+"""
+
+from __future__ import annotations
+
+import argparse
+import json
+from pathlib import Path
+
+import numpy as np
+
+from .. import experiments as ex
+from .. import graph
+from ..datasets import identify, mrclam
+from ..metrics import nees, pose_error
+from ..models import observe, wrap_angle
+from ..worlds import DATA_DIR
+from . import ch10
+
+__all__ = ["ESTIMATES", "FILTERED", "MAX_STEPS", "ROBUST_K", "STUDY_FILE", "FORMAT", "robot_traces",
+           "node_samples", "whitened_residuals", "figures", "run_robot", "study", "save", "load",
+           "Study", "main"]
+
+FORMAT = "slamlib-graph-mrclam/1"
+STUDY_FILE = DATA_DIR / "studies" / "graph_mrclam.json"
+#: The estimates, in table order.
+ESTIMATES = ("ekf", "ekf_ungated", "isam2_online", "isam2", "batch", "huber", "cauchy")
+#: Which of them are filtered (the rest are smoothed).
+FILTERED = ("ekf", "ekf_ungated", "isam2_online")
+#: A pose node also after this many filter steps without a camera frame (about 1 s on
+#: these logs), so that the blind stretches are judged too.
+MAX_STEPS = 100
+#: The robust kernels' threshold, in whitened sigmas (Huber's 95 %-efficiency constant).
+ROBUST_K = 1.345
+_DIGITS = 6
+
+
+def _r(v) -> float:
+    return float(f"{float(v):.{_DIGITS}g}")
+
+
+def _raw_logs(folder) -> dict:
+    return {r: mrclam.load(folder, r, unknown_barcodes="drop") for r in mrclam.ROBOTS}
+
+
+def robot_traces(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None,
+                 estimates=ESTIMATES) -> tuple[dict, mrclam.Log]:
+    """Every estimate of one robot (see the module docstring) and its identified log.
+
+    ``raw``: the five robots' logs as loaded (``unknown_barcodes="drop"``), to
+    identify the noise from; read from ``folder`` if not given.
+    """
+    if robot not in mrclam.ROBOTS:
+        raise ValueError(f"robot: expected one of {mrclam.ROBOTS}, got {robot!r}")
+    unknown = set(estimates) - set(ESTIMATES)
+    if unknown:
+        raise ValueError(f"estimates: expected names from {ESTIMATES}, got {sorted(unknown)}")
+    raw = _raw_logs(folder) if raw is None else raw
+    cal, noise, _ = ch10.identify_from(raw[k] for k in mrclam.ROBOTS if k != robot)
+    log = ch10.load_identified(folder, robot, cal, noise)
+    out: dict = {}
+    if "ekf" in estimates:
+        out["ekf"] = mrclam.slam(log)
+    if "ekf_ungated" in estimates:
+        out["ekf_ungated"] = mrclam.slam(log, gate=None)
+    if {"isam2", "isam2_online"} & set(estimates):
+        i = graph.smooth(log, "isam2", max_steps=MAX_STEPS)
+        out["isam2"] = i
+        out["isam2_online"] = ex.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P,
+                                       truth=i.truth, filter=i.filter)
+    if "batch" in estimates:
+        out["batch"] = graph.smooth(log, "batch", max_steps=MAX_STEPS)
+    for k in ("huber", "cauchy"):
+        if k in estimates:
+            out[k] = graph.smooth(log, "batch", max_steps=MAX_STEPS, robust=k,
+                                  robust_k=ROBUST_K)
+    return {k: out[k] for k in estimates}, log
+
+
+def node_samples(trace: ex.Trace, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The estimate, its covariance and the truth at the times ``t``.
+
+    The state after the last event at or before each time (for a filter at a
+    camera frame: after its update there).
+    """
+    t = np.asarray(t, dtype=float)
+    k = np.searchsorted(trace.t, t + 1e-9, side="right") - 1
+    if np.any(k < 0):
+        raise ValueError("t: expected times at or after the trace's start")
+    return trace.x[k], trace.P[k], trace.truth[k]
+
+
+def whitened_residuals(trace: graph.GraphTrace) -> np.ndarray:
+    """Each reading's Mahalanobis distance from the smoother's solution, in the log's order.
+
+    ``d = sqrt(e^T R^-1 e)`` with ``e = z - h(x_i, l_j)`` (bearing wrapped), from the
+    solved poses and landmarks (z-down) and the reading's own R.
+    """
+    p = trace.problem
+    lm = trace.landmarks
+    out = []
+    for i, (ids, z, R) in enumerate(p.readings):
+        for j in range(ids.shape[0]):
+            e = z[j] - observe(trace.x[i], lm[int(ids[j])])
+            e[1] = wrap_angle(e[1])
+            out.append(float(np.sqrt(e @ np.linalg.solve(R[j], e))))
+    return np.array(out)
+
+
+def figures(traces: dict, log: mrclam.Log, outliers: np.ndarray | None = None) -> dict:
+    """ATE, final error, mean NEES and map error of each estimate, at the graph's pose times.
+
+    ``outliers``: chapter 10's flags (one per reading of ``log``, against Vicon),
+    to count how many of the readings a kernel would down-weight were outliers.
+    """
+    ref = next((tr for tr in traces.values() if isinstance(tr, graph.GraphTrace)), None)
+    if ref is None:
+        raise ValueError("traces: expected at least one smoother's trace (its pose times)")
+    t = ref.t
+    world = log.world()
+    out: dict = {"poses": int(t.size), "readings": int(len(log.camera))}
+    for name, tr in traces.items():
+        x, P, truth = node_samples(tr, t)
+        e = pose_error(x, truth)
+        row = {"ate_xy": _r(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))),
+               "final_xy_error": _r(np.hypot(*e[-1, :2])),
+               "mean_nees": _r(np.mean(nees(e, P))),
+               "map_rmse": _r(ex.map_error(tr.filter, world)[0])}
+        if isinstance(tr, graph.GraphTrace):
+            d = whitened_residuals(tr)
+            far = d > ROBUST_K
+            row["beyond_k"] = int(far.sum())
+            if outliers is not None:
+                if outliers.shape != d.shape:
+                    raise ValueError(f"outliers: expected {d.size} flags, got {outliers.size}")
+                row["beyond_k_outliers"] = int(np.sum(far & outliers))
+            row["max_residual"] = _r(d.max()) if d.size else 0.0
+        if name == "ekf":
+            row["rejected"] = int(tr.counts().get("rejected", 0))
+        out[name] = row
+    if outliers is not None:
+        out["outliers"] = int(np.sum(outliers))
+    return out
+
+
+def run_robot(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None) -> dict:
+    """The stored figures of one robot (see the module docstring)."""
+    raw = _raw_logs(folder) if raw is None else raw
+    traces, log = robot_traces(robot, folder, raw)
+    flags = identify.fit_reading_noise(identify.reading_residuals(raw[robot])).outlier
+    return {"robot": int(robot), **figures(traces, log, np.asarray(flags, dtype=bool))}
+
+
+def study(folder=mrclam.EXCERPT_DIR) -> dict:
+    """Every robot, in order."""
+    raw = _raw_logs(folder)
+    return {"format": FORMAT, "folder": Path(folder).name, "robust_k": ROBUST_K,
+            "max_steps": MAX_STEPS,
+            "robots": [run_robot(r, folder, raw) for r in mrclam.ROBOTS]}
+
+
+def save(data: dict, path=STUDY_FILE) -> None:
+    """Write the study as JSON, one robot per line."""
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    rows = data["robots"]
+    lines = ["{", f'"format": {json.dumps(data["format"])},',
+             f'"folder": {json.dumps(data["folder"])},',
+             f'"robust_k": {json.dumps(data["robust_k"])},',
+             f'"max_steps": {json.dumps(data["max_steps"])},', '"robots": [']
+    for j, r in enumerate(rows):
+        lines.append(json.dumps(r, separators=(",", ":")) + ("," if j < len(rows) - 1 else ""))
+    lines += ["]", "}"]
+    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+
+
+class Study:
+    """The stored MRCLAM comparison, with the tables chapter 11 prints."""
+
+    def __init__(self, data: dict):
+        if data.get("format") != FORMAT:
+            raise ValueError(f"data: expected format {FORMAT!r}, got {data.get('format')!r}")
+        self.data = data
+
+    @property
+    def robots(self) -> list[int]:
+        return [int(r["robot"]) for r in self.data["robots"]]
+
+    def row(self, robot: int) -> dict:
+        for r in self.data["robots"]:
+            if int(r["robot"]) == int(robot):
+                return r
+        raise ValueError(f"robot: expected one of {self.robots}, got {robot!r}")
+
+    def values(self, estimate: str, name: str) -> np.ndarray:
+        """One figure of one estimate, robot by robot."""
+        return np.array([r[estimate][name] for r in self.data["robots"]], dtype=float)
+
+    def table(self, name: str, estimates=ESTIMATES, fmt: str = "7.2f") -> str:
+        """``name`` of each estimate (columns) robot by robot (rows), and the median."""
+        w = max(int(fmt.split(".")[0]), 6)
+        head = "robot " + "".join(f"{e:>{max(w, len(e)) + 1}s}" for e in estimates)
+        lines = [head]
+        for r in self.data["robots"]:
+            lines.append(f"{r['robot']:5d} " + "".join(
+                f" {r[e][name]:{max(w, len(e))}{fmt[fmt.index('.'):]}}" for e in estimates))
+        lines.append("median" + "".join(
+            f" {np.median(self.values(e, name)):{max(w, len(e))}{fmt[fmt.index('.'):]}}"
+            for e in estimates))
+        return "\n".join(lines)
+
+
+def load(path=STUDY_FILE) -> Study:
+    """The stored comparison (``make graph-mrclam`` writes it)."""
+    path = Path(path)
+    if not path.is_file():
+        raise ValueError(f"path: {path} not found (make graph-mrclam writes it)")
+    return Study(json.loads(path.read_text(encoding="utf-8")))
+
+
+def main(argv=None) -> int:
+    p = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    p.add_argument("--out", default=str(STUDY_FILE))
+    a = p.parse_args(argv)
+    data = study()
+    save(data, a.out)
+    s = Study(data)
+    for name in ("ate_xy", "mean_nees"):
+        print(name)
+        print(s.table(name))
+    return 0
+
+
+if __name__ == "__main__":
+    raise SystemExit(main())
