@@ -10,6 +10,7 @@
 - ``plots_ch09``         chapter 09's figures
 - ``ch10``               chapter 10's exercise checker and helpers (the MRCLAM robots)
 - ``graph_study``        chapter 11's study of EKF against batch and iSAM2 (``data/studies``)
+- ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
 - ``graph_plots``        chapter 11's figures
 - ``graph_exercise``     chapter 11's exercise checker (a covariance into GTSAM's frame)
 """
