@@ -210,7 +210,8 @@ def augment(x: np.ndarray, P: np.ndarray, z: np.ndarray, R: np.ndarray
     return np.concatenate([x, m]), 0.5 * (P_new + P_new.T)
 
 
-def update(x: np.ndarray, P: np.ndarray, index: dict, ids, z, R, threshold: float = np.inf
+def update(x: np.ndarray, P: np.ndarray, index: dict, ids, z, R, threshold: float = np.inf, *,
+           stacked_jacobian=stacked_jacobian, joint_update=joint_update, augment=augment
            ) -> tuple[np.ndarray, np.ndarray, dict, np.ndarray]:
     """The whole update of one camera frame, as :meth:`slamlib.ekf.EKFSLAM.update` (chapter 05).
 
@@ -232,6 +233,9 @@ def update(x: np.ndarray, P: np.ndarray, index: dict, ids, z, R, threshold: floa
     R : numpy.ndarray, shape (2, 2) or (k, 2, 2)
     threshold : float
         The gate ``chi2.ppf(gate, 2)``; ``inf`` accepts every reading.
+    stacked_jacobian, joint_update, augment : callable, optional
+        The three steps (this module's by default); chapter 05 passes the
+        student's own to drive the recorded run with them.
 
     Returns
     -------
@@ -248,7 +252,7 @@ def update(x: np.ndarray, P: np.ndarray, index: dict, ids, z, R, threshold: floa
         s = index[int(mid)]
         h = observe(x[:3], x[s:s + 2])
         H_pose, H_lm = observation_jacobians(x[:3], x[s:s + 2])
-        H_i = stacked_jacobian(x.size, [s], [H_pose], [H_lm])
+        H_i = stacked_jacobian(x.size, [s], np.array([H_pose]), np.array([H_lm]))
         y_i = innovation(z[i], h)
         S_i = H_i @ P @ H_i.T + R[i]
         d2 = y_i @ np.linalg.solve(S_i, y_i)                # (6) D^2 = y^T S^-1 y
@@ -260,7 +264,7 @@ def update(x: np.ndarray, P: np.ndarray, index: dict, ids, z, R, threshold: floa
             Hp.append(H_pose)
             Hl.append(H_lm)
     if rows:
-        H = stacked_jacobian(x.size, slots, Hp, Hl)
+        H = stacked_jacobian(x.size, slots, np.array(Hp), np.array(Hl))
         x, P = joint_update(x, P, z[rows], np.array(z_pred), H, block_diagonal(R[rows]))
     index = dict(index)
     for i, mid in enumerate(ids):

@@ -21,12 +21,7 @@ import numpy as np
 from .. import ekf_textbook as tb
 from ..ekf import gate_threshold
 from ..experiments import DEFAULT_P0, Trace, TraceRecorder, reading_covariances, sensor_noise
-from ..models import (
-    motion_jacobians,
-    motion_model,
-    observation_jacobians,
-    observe,
-)
+from ..models import motion_jacobians, motion_model
 from ..runs import Run
 from .filter_checkers import (
     check_augment,
@@ -107,33 +102,10 @@ def choose(verbose: bool = True, **functions) -> dict[str, Callable]:
 
 
 def _update(f: StudentSLAM, ids, z, R, threshold: float, fn: dict) -> None:
-    """One camera frame, as :func:`slamlib.ekf_textbook.update`, with the chosen functions:
-    gate each reading of a mapped id against the prior, fuse the accepted ones jointly, then
-    append the new ids from the updated pose."""
-    x, P = f.x, f.P
-    rows, slots, z_pred, Hp, Hl = [], [], [], [], []
-    for i, mid in enumerate(ids):
-        s = f.index.get(int(mid))
-        if s is None:
-            continue
-        h = observe(x[:3], x[s:s + 2])
-        H_pose, H_lm = observation_jacobians(x[:3], x[s:s + 2])
-        H_i = fn["stacked_jacobian"](x.size, [s], np.array([H_pose]), np.array([H_lm]))
-        y_i = tb.innovation(z[i], h)
-        d2 = y_i @ np.linalg.solve(H_i @ P @ H_i.T + R[i], y_i)   # (6) the gate
-        if d2 < threshold:
-            rows.append(i)
-            slots.append(s)
-            z_pred.append(h)
-            Hp.append(H_pose)
-            Hl.append(H_lm)
-    if rows:
-        H = fn["stacked_jacobian"](x.size, slots, np.array(Hp), np.array(Hl))
-        x, P = fn["joint_update"](x, P, z[rows], np.array(z_pred), H, tb.block_diagonal(R[rows]))
-    for i, mid in enumerate(ids):
-        if int(mid) not in f.index:
-            f.index[int(mid)] = x.size
-            x, P = fn["augment"](x, P, z[i], R[i])
+    """One camera frame: :func:`slamlib.ekf_textbook.update` with the chosen functions."""
+    x, P, f.index, _ = tb.update(f.x, f.P, f.index, ids, z, R, threshold,
+                                 stacked_jacobian=fn["stacked_jacobian"],
+                                 joint_update=fn["joint_update"], augment=fn["augment"])
     f.x, f.P = np.asarray(x, dtype=float), np.asarray(P, dtype=float)
 
 
