@@ -135,3 +135,9 @@ def test_site_needs_no_network(site):
         text = page.read_text(encoding="utf-8")
         for cdn in ("cdn.jsdelivr.net", "cdnjs.cloudflare.com", "unpkg.com"):
             assert cdn not in text, f"{page.relative_to(html)} loads from {cdn}"
+
+
+def test_answers_are_folded(site):
+    html, _ = site
+    page = (html / "chapters" / "08_camera_delay.html").read_text(encoding="utf-8")
+    assert "<details>" in page and "Answers (open after trying)" in page

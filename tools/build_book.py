@@ -7,7 +7,8 @@ The sources are laid out in ``<out>/src``: the pages of ``book/`` and a copy of
 every notebook in ``chapters/``, in which
 
 - each solution cell (tag ``solution``) is folded (tag ``hide-input``: the
-  reader opens it with a click), and
+  reader opens it with a click), and so is each answer to a "More to try"
+  list (tag ``answer``, a markdown cell: wrapped in ``<details>``), and
 - the plain-text stand-ins of widget views (``VBox(children=...``,
   ``interactive(children=...``) are dropped: a browser without a kernel cannot
   show live controls, and the figure drawn at the defaults stays
@@ -37,6 +38,9 @@ def prepare_notebook(nb: nbformat.NotebookNode) -> nbformat.NotebookNode:
         tags = cell.metadata.get("tags", [])
         if "solution" in tags and "hide-input" not in tags:
             cell.metadata["tags"] = [*tags, "hide-input"]
+        if "answer" in tags and cell.cell_type == "markdown":
+            cell.source = ("<details>\n<summary>Answers (open after trying)</summary>\n\n"
+                           f"{cell.source}\n\n</details>")
         if cell.cell_type != "code":
             continue
         cell.outputs = [o for o in cell.outputs if not _is_widget_stand_in(o)]
