@@ -113,6 +113,7 @@ from .models import (
     _check_motion_args,
     _motion_step,
     _wrap_array,
+    _wrap_scalar,
     inverse_observation_jacobians,
     inverse_observe,
     wrap_angle,
@@ -452,7 +453,8 @@ class _EKFBase:
         self.gate = gate
         cap = 3 + 2 * max(int(capacity), 0)
         self._x = np.zeros(cap)
-        self._P = np.zeros((cap, cap))
+        self._Pbuf = np.zeros((cap, cap))
+        self._shear = None            # (a, b) not yet applied to P_rm (see _predict_shear)
         self._n = 3
         x0[2] = wrap_angle(x0[2])
         self._x[:3] = x0
@@ -461,6 +463,20 @@ class _EKFBase:
         self._slot: dict[int, int] = {}  # marker id -> index of x_F in the state
 
     # ------------------------------------------------------------------ read-out
+    @property
+    def _P(self) -> np.ndarray:
+        """The covariance storage (capacity x capacity), brought up to date: the shear of
+        the predictions since the last read is applied to ``P_rm`` first
+        (see :meth:`_predict_shear`)."""
+        if self._shear is not None:
+            self._apply_shear()
+        return self._Pbuf
+
+    @_P.setter
+    def _P(self, value: np.ndarray) -> None:
+        self._shear = None
+        self._Pbuf = value
+
     @property
     def gate(self) -> float | None:
         """Probability of the chi-square gate, or None (no gating); may be changed any time."""
@@ -494,7 +510,7 @@ class _EKFBase:
     @property
     def pose_cov(self) -> np.ndarray:
         """The robot's 3x3 covariance block ``P_rr`` (a copy)."""
-        return self._P[:3, :3].copy()
+        return self._Pbuf[:3, :3].copy()           # always current (the shear is in P_rm only)
 
     @property
     def state_size(self) -> int:
@@ -522,6 +538,18 @@ class _EKFBase:
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
+        if (getattr(self.motion_step, "__func__", None) is _EKFBase.motion_step
+                and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov):
+            # The course's motion model, unchanged hooks: f, A, W as scalars (no 3x3 arrays).
+            # The same equations as models.motion_model / motion_jacobians (chapter 01).
+            x, y, th = self._x[:3].tolist()
+            uR, uL = u.tolist()
+            v, w = 0.5 * (uR + uL), (uL - uR) / self.wheel_base
+            c, s = math.cos(th), math.sin(th)
+            self._x[:3] = (x + v * c * dt, y + v * s * dt, _wrap_scalar(th + w * dt))
+            hc, hs, g = 0.5 * c * dt, 0.5 * s * dt, dt / self.wheel_base
+            self._predict_shear(-v * s * dt, v * c * dt, (hc, hc, hs, hs, -g, g))
+            return
         new_pose, A, W = self.motion_step(self._x[:3], u, dt)
         self._predict_cov(A, W)
         self._x[:3] = new_pose
@@ -608,8 +636,16 @@ class _EKFBase:
         ids = _as_ids(ids)
         k = ids.shape[0]
         z = _as_readings(z, k)
-        Rk = _as_reading_noise(R, self.R, k)
+        return self._update_ids(ids, z, _as_reading_noise(R, self.R, k))
 
+    def _update_ids(self, ids: np.ndarray, z: np.ndarray, Rk: np.ndarray) -> UpdateReport:
+        """:meth:`update` with ids on checked arrays: ids int (k,), z (k, 2), Rk (k, 2, 2).
+
+        The runners of :mod:`slamlib.experiments` call it directly with the
+        readings of a :class:`~slamlib.runs.Run` (checked when the run was made)
+        and the covariances of the run's own sensor model.
+        """
+        k = ids.shape[0]
         status = [""] * k
         gated, positions, slots = [], [], []
         first_new: dict[int, int] = {}
@@ -640,24 +676,29 @@ class _EKFBase:
             slots_a = np.array(slots, dtype=np.int64)
             h, Hp, Hl = self.reading_model(self._x[:3].copy(), np.array(positions))
             ok = np.isfinite(h[:, 1])
-            for i in g[~ok]:
-                status[i] = "degenerate"
-            g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
+            if not ok.all():                     # a landmark estimate on the robot
+                for i in g[~ok]:
+                    status[i] = "degenerate"
+                g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
         if gated and g.size:
             y = z[g] - h
-            y[:, 1] = wrap_angle(y[:, 1])
+            y[:, 1] = _wrap_array(y[:, 1])
             Rg = np.ascontiguousarray(Rk[g])
             S = self._innovation_covs(slots_a, Hp, Hl, Rg)
-            d2g = np.einsum("ki,ki->k", y, np.linalg.solve(S, y[:, :, None])[:, :, 0])
+            d2g = _mahalanobis_2x2(y, S)
             acc = np.ones(g.size, dtype=bool) if self.gate is None else d2g < self.threshold
             d2[g], innov[g], pred[g], S_all[g] = d2g, y, h, S
             accepted[g[acc]] = True
-            for i, a in zip(g, acc):
+            flags = acc.tolist()
+            for i, a in zip(g.tolist(), flags):
                 status[i] = "accepted" if a else "rejected"
             # -------- everything is checked: from here on the state changes
-            if np.any(acc):
+            if all(flags):
+                joint_nis = self._fuse(slots_a, Hp, Hl, y, Rg)
+            elif any(flags):
                 joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
-                self._x[2] = wrap_angle(self._x[2])
+            if any(flags):
+                self._x[2] = _wrap_scalar(float(self._x[2]))
 
         new = np.zeros(k, dtype=bool)
         for mid, i in first_new.items():
@@ -822,13 +863,67 @@ class _EKFBase:
 
     # ------------------------------------------------------------------ the structured algebra
     def _predict_cov(self, A: np.ndarray, W: np.ndarray) -> None:
-        """``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``, ``P_mr = P_rm^T``: O(n)."""
+        """``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``, ``P_mr = P_rm^T``: O(n).
+
+        The motion Jacobians of the course's filters are all *shears*,
+        ``A = I + c e_3^T`` with ``c = [a, b, 0]`` (only ``A[0, 2]`` and
+        ``A[1, 2]`` differ from the identity): those go to
+        :meth:`_predict_shear`; any other A is applied as it is.
+        """
+        a = A.tolist()
+        if (a[0][0] == 1.0 and a[0][1] == 0.0 and a[1][0] == 0.0 and a[1][1] == 1.0
+                and a[2] == [0.0, 0.0, 1.0]):
+            self._predict_shear(a[0][2], a[1][2], tuple(np.ravel(W).tolist()))
+            return
         P, n = self._P, self._n
         Prr = A @ P[:3, :3] @ A.T + W @ self.Q @ W.T
         P[:3, :3] = 0.5 * (Prr + Prr.T)
         if n > 3:
             P[:3, 3:n] = A @ P[:3, 3:n]
             P[3:n, :3] = P[:3, 3:n].T
+
+    def _predict_shear(self, a: float, b: float, W: tuple) -> None:
+        """The prediction's covariance for ``A = I + c e_3^T``, ``c = [a, b, 0]`` (chapter 01).
+
+        ``P_rr <- A P_rr A^T + W Q W^T`` element by element, exactly symmetric::
+
+            (A P A^T)_ij = P_ij + c_i P_3j + P_i3 c_j + c_i c_j P_33
+
+        and ``P_rm <- A P_rm`` is *deferred*: shears compose by adding their
+        ``c`` (``(I + c e_3^T)(I + c' e_3^T) = I + (c + c') e_3^T`` because
+        ``e_3^T c' = 0``), so the predictions between two camera frames are one
+        shear of ``P_rm``, applied (O(n)) when anything next reads ``P``
+        (:attr:`_P`). ``W`` is the 3x2 noise Jacobian as 6 floats, row by row.
+        """
+        P = self._Pbuf
+        (p00, p01, p02), (_, p11, p12), (_, _, p22) = P[:3, :3].tolist()
+        (q00, q01), (_, q11) = self.Q.tolist()
+        w00, w01, w10, w11, w20, w21 = W
+        # rows of W Q
+        r00, r01 = w00 * q00 + w01 * q01, w00 * q01 + w01 * q11
+        r10, r11 = w10 * q00 + w11 * q01, w10 * q01 + w11 * q11
+        r20, r21 = w20 * q00 + w21 * q01, w20 * q01 + w21 * q11
+        n00 = p00 + 2.0 * a * p02 + a * a * p22 + (r00 * w00 + r01 * w01)
+        n01 = p01 + a * p12 + b * p02 + a * b * p22 + (r00 * w10 + r01 * w11)
+        n11 = p11 + 2.0 * b * p12 + b * b * p22 + (r10 * w10 + r11 * w11)
+        n02 = p02 + a * p22 + (r00 * w20 + r01 * w21)
+        n12 = p12 + b * p22 + (r10 * w20 + r11 * w21)
+        n22 = p22 + (r20 * w20 + r21 * w21)
+        P[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
+        if self._n > 3:
+            if self._shear is None:
+                self._shear = (a, b)
+            else:
+                self._shear = (self._shear[0] + a, self._shear[1] + b)
+
+    def _apply_shear(self) -> None:
+        """``P_rm <- (I + c e_3^T) P_rm`` for the pending ``c`` of :meth:`_predict_shear`."""
+        a, b = self._shear
+        self._shear = None
+        P, n = self._Pbuf, self._n
+        P[0, 3:n] += a * P[2, 3:n]
+        P[1, 3:n] += b * P[2, 3:n]
+        P[3:n, :2] = P[:2, 3:n].T
 
     def _blocks(self, slots: np.ndarray) -> np.ndarray:
         """State indices ``(m, c)`` of the robot and of each reading's landmark."""
@@ -857,14 +952,15 @@ class _EKFBase:
     def _fuse(self, slots, Hp, Hl, y, R) -> float:
         """One joint update with m readings, O(n^2 m); returns the joint NIS."""
         P, n, m = self._P, self._n, slots.size
-        lm = list(dict.fromkeys(int(s) for s in slots if s >= 0))  # observed landmarks, once
-        cols = np.concatenate([np.arange(3)] + [np.array([s, s + 1]) for s in lm])
+        sl = slots.tolist()
+        lm = list(dict.fromkeys(s for s in sl if s >= 0))   # observed landmarks, once
+        cols = np.array([0, 1, 2] + [c for s in lm for c in (s, s + 1)])
         where = {s: 3 + 2 * j for j, s in enumerate(lm)}
         Hc = np.zeros((2 * m, cols.size))  # H restricted to those columns
-        for j in range(m):
+        for j, s in enumerate(sl):
             Hc[2 * j:2 * j + 2, :3] = Hp[j]
-            if slots[j] >= 0:
-                c = where[int(slots[j])]
+            if s >= 0:
+                c = where[s]
                 Hc[2 * j:2 * j + 2, c:c + 2] = Hl[j]
         G = P[:n, cols] @ Hc.T                       # P H^T, n x 2m
         S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
@@ -885,6 +981,17 @@ class _EKFBase:
         P[n:n + 2, :n] = PLx
         P[:n, n:n + 2] = PLx.T
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
+
+
+def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
+    """``d2_i = y_i^T S_i^-1 y_i`` of k innovations (k, 2) with symmetric S (k, 2, 2).
+
+    The inverse of a symmetric 2x2 matrix written out: ``S^-1 = [[s11, -s01],
+    [-s01, s00]] / (s00 s11 - s01^2)``.
+    """
+    s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
+    y0, y1 = y[:, 0], y[:, 1]
+    return (s11 * y0 * y0 - 2.0 * s01 * y0 * y1 + s00 * y1 * y1) / (s00 * s11 - s01 * s01)
 
 
 #: Rows per block in :func:`_subtract_symmetric_low_rank` (a block of P stays in cache).
@@ -917,10 +1024,10 @@ def _subtract_symmetric_low_rank(P: np.ndarray, n: int, E: np.ndarray, K: np.nda
 def _block_diag(R: np.ndarray) -> np.ndarray:
     """Block-diagonal (2m x 2m) matrix from m 2x2 blocks."""
     m = R.shape[0]
-    out = np.zeros((2 * m, 2 * m))
-    for j in range(m):
-        out[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R[j]
-    return out
+    out = np.zeros((m, 2, m, 2))
+    j = np.arange(m)
+    out[j, :, j, :] = R
+    return out.reshape(2 * m, 2 * m)
 
 
 # --------------------------------------------------------------------------- the two filters

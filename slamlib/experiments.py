@@ -23,7 +23,15 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .ekf import EKFSLAM, FEJEKFSLAM, EKFLocalization, IdealEKFSLAM, UpdateReport
+from .ekf import (
+    EKFSLAM,
+    FEJEKFSLAM,
+    EKFLocalization,
+    IdealEKFSLAM,
+    UpdateReport,
+    _as_reading_noise,
+    _EKFBase,
+)
 from .metrics import ate, nees, pose_error
 from .models import wrap_angle
 from .runs import Run
@@ -201,6 +209,10 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     pending = None
     rec = TraceRecorder(run.enc_t[0], filt)
     predict = filt.predict
+    # The run's ids and readings were checked when it was made: an unchanged filter of
+    # slamlib.ekf takes them without checking them again (R is still checked).
+    checked = (isinstance(filt, _EKFBase) and type(filt).update is _EKFBase.update
+               and filt.association == "ids")
     for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
         if max_time is not None and t > max_time:
             break
@@ -214,7 +226,10 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
             if until is not None and t >= until - 1e-9:
                 pending = PendingFrame(float(t), obs, R)
                 break
-            report = filt.update(obs.ids, obs.z, R=R)
+            if checked:
+                report = filt._update_ids(obs.ids, obs.z, _as_reading_noise(R, filt.R, len(obs)))
+            else:
+                report = filt.update(obs.ids, obs.z, R=R)
         rec.record(t, "predict" if kind == 0 else "update", filt, report)
     return rec.trace(run, filt, pending=pending)
 

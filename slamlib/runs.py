@@ -124,6 +124,11 @@ class CameraRows:
             if getattr(self, name).shape[0] != n:
                 raise ValueError(f"CameraRows.{name}: expected {n} rows, "
                                  f"got {getattr(self, name).shape[0]}")
+        # what a filter's update would check reading by reading, checked once for the run
+        if not (np.isfinite(self.rho).all() and np.isfinite(self.bearing).all()):
+            raise ValueError("CameraRows: expected finite ranges and bearings (NaN or inf found)")
+        if (self.rho < 0.0).any():
+            raise ValueError(f"CameraRows.rho: expected ranges >= 0, got {self.rho.min()}")
 
     def __len__(self) -> int:
         return int(self.t_capture.shape[0])
