@@ -118,3 +118,43 @@ def test_monte_carlo_same_numbers_with_one_and_two_workers():
         [r.d2 for r in two["slam"].reobservations]
     with pytest.raises(ValueError, match="workers"):
         studies.monte_carlo("arena_loop", ("slam",), seeds=(1,), workers=0)
+
+
+def test_deferred_shear_equals_the_predictions_applied_one_by_one():
+    """Twenty predictions with the cross-covariance's shear deferred, then P read: the same P
+    (to rounding) as A P A^T + W Q W^T applied with full matrices at every step."""
+    rng = np.random.default_rng(3)
+    Q = np.diag([0.02 ** 2, 0.03 ** 2])
+    f = EKFSLAM([0.1, -0.2, 0.3], np.diag([1e-3, 2e-3, 1e-3]), Q, np.diag([0.01, 1e-4]))
+    f.update([7, 9], [[1.5, 0.2], [2.0, -0.4]])            # two landmarks: P_rm non-zero
+    P = f.P
+    x = f.x
+    for _ in range(20):
+        u, dt = rng.normal(0.2, 0.1, 2), 0.02
+        new, A, W = _motion_step(x[:3], u, dt, f.wheel_base)
+        F = np.eye(x.size)
+        F[:3, :3] = A
+        G = np.zeros((x.size, 2))
+        G[:3] = W
+        P = F @ P @ F.T + G @ Q @ G.T
+        x[:3] = new
+        f.predict(u, dt)
+    assert f._shear is not None                             # the shear is still pending...
+    np.testing.assert_allclose(f.pose_cov, P[:3, :3], rtol=0, atol=1e-15)
+    np.testing.assert_allclose(f.P, P, rtol=0, atol=1e-15)  # ... and applied when P is read
+    assert f._shear is None
+    np.testing.assert_allclose(f.x, x, rtol=0, atol=1e-14)
+
+
+def test_a_run_with_a_bad_reading_is_refused_when_made():
+    """The runners give a run's readings to the filter unchecked: CameraRows checks them once."""
+    from slamlib.runs import CameraRows
+
+    good = dict(t_capture=[0.1, 0.1], t_arrival=[0.1, 0.1], id=[1, 2], rho=[1.0, 2.0],
+                bearing=[0.1, -0.1], true_id=[1, 2], true_rho=[1.0, 2.0],
+                true_bearing=[0.1, -0.1])
+    CameraRows(**good)
+    with pytest.raises(ValueError, match="finite"):
+        CameraRows(**{**good, "rho": [1.0, np.nan]})
+    with pytest.raises(ValueError, match="ranges >= 0"):
+        CameraRows(**{**good, "rho": [1.0, -0.5]})
