@@ -965,7 +965,7 @@ class _EKFBase:
         G = P[:n, cols] @ Hc.T                       # P H^T, n x 2m
         S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
         S = 0.5 * (S + S.T)
-        S_inv = np.linalg.inv(S)                     # small: 2m x 2m
+        S_inv = _inverse_2x2(S) if m == 1 else np.linalg.inv(S)   # small: 2m x 2m
         K = G @ S_inv                                # P H^T S^-1, n x 2m
         yv = y.reshape(-1)
         self._x[:n] += K @ yv
@@ -981,6 +981,13 @@ class _EKFBase:
         P[n:n + 2, :n] = PLx
         P[:n, n:n + 2] = PLx.T
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
+
+
+def _inverse_2x2(S: np.ndarray) -> np.ndarray:
+    """The inverse of a symmetric positive-definite 2x2 matrix, written out."""
+    (a, b), (_, d) = S.tolist()
+    det = a * d - b * b
+    return np.array([[d / det, -b / det], [-b / det, a / det]])
 
 
 def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:

@@ -35,6 +35,7 @@ from .ekf import (
 from .metrics import ate, nees, pose_error
 from .models import wrap_angle
 from .runs import Run
+from .sensors import AnalyticMarkerSensor
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
            "dead_reckoning", "localization", "slam", "fej_slam", "ideal_slam", "truth_function",
@@ -213,6 +214,10 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     # slamlib.ekf takes them without checking them again (R is still checked).
     checked = (isinstance(filt, _EKFBase) and type(filt).update is _EKFBase.update
                and filt.association == "ids")
+    # The analytic sensor's R is diagonal with variances >= its sigmas' squares: positive
+    # definite whenever both sigmas are positive, so its R needs no check either.
+    sensor_R_ok = (type(sensor) is AnalyticMarkerSensor and sensor.sigma_range0 > 0.0
+                   and sensor.sigma_range_per_m >= 0.0 and sensor.sigma_bearing > 0.0)
     for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
         if max_time is not None and t > max_time:
             break
@@ -227,7 +232,8 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
                 pending = PendingFrame(float(t), obs, R)
                 break
             if checked:
-                report = filt._update_ids(obs.ids, obs.z, _as_reading_noise(R, filt.R, len(obs)))
+                report = filt._update_ids(obs.ids, obs.z, R if sensor_R_ok else
+                                          _as_reading_noise(R, filt.R, len(obs)))
             else:
                 report = filt.update(obs.ids, obs.z, R=R)
         rec.record(t, "predict" if kind == 0 else "update", filt, report)

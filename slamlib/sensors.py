@@ -282,8 +282,9 @@ class AnalyticMarkerSensor:
         if not np.all(np.isfinite(rho)):
             return np.stack([self.R(r) for r in rho])        # the error R gives
         out = np.zeros((rho.size, 2, 2))
-        # the same operations as R, element by element (Python's float ** 2)
-        out[:, 0, 0] = [float(s) ** 2 for s in self.sigma_range(np.maximum(rho, 0.0))]
+        # the same operations as R, element by element (x ** 2 is x * x, correctly rounded)
+        s = self.sigma_range(np.maximum(rho, 0.0))
+        out[:, 0, 0] = s * s
         out[:, 1, 1] = self.sigma_bearing ** 2
         return out
 
@@ -328,6 +329,75 @@ class AnalyticMarkerSensor:
         """
         pose = as_vector("pose", pose, 3)
         return self._read(_Geometry(world), pose, rng)
+
+    def _read_frames(self, geo: _Geometry, poses: list, times: list, latency: float,
+                     rng: np.random.Generator) -> list[Observations]:
+        """:meth:`_read` of many frames at once (capture ``times``, ``poses``), in order.
+
+        The same draws in the same order and the same operations element by element
+        as one :meth:`_read` per frame, so the same numbers bit for bit
+        (``tests/test_fast_paths.py``); the geometry is computed for all frames at once.
+        """
+        F, n = len(poses), geo.n
+        if F == 0 or n == 0:
+            out = []
+            for p, t in zip(poses, times):
+                obs = self._read(geo, p, rng)
+                obs.t, obs.t_arrival = t, t + latency
+                out.append(obs)
+            return out
+        E = np.empty((F, n, 2))
+        U = np.empty((F, n, 3))
+        V = np.empty((F, 5))
+        for f in range(F):                       # the draws of _read, frame after frame
+            E[f] = rng.standard_normal((n, 2))
+            U[f] = rng.random((n, 3))
+            V[f] = rng.random(5)
+        P = np.array(poses, dtype=float)
+        cam = np.array([_camera_positions(p, self.camera_offset) for p in poses])
+        # _visible, for every frame
+        d = geo.positions[None, :, :] - cam[:, None, :]
+        dist = np.hypot(d[:, :, 0], d[:, :, 1])
+        bearing_cam = _wrap_array(np.arctan2(d[:, :, 1], d[:, :, 0]) - P[:, 2:3])
+        safe = np.where(dist > 0.0, dist, 1.0)
+        cos_view = -(geo.normals[None, :, :] * d).sum(axis=2) / safe
+        seen = ((np.abs(bearing_cam) < self.fov_half_angle) & (dist >= self.min_range)
+                & (dist <= self.max_range) & (dist > 0.0)
+                & (cos_view > math.cos(self.max_view_angle)))
+        # the readings of every marker in every frame; only the seen ones are kept
+        dx = geo.positions[None, :, 0] - P[:, 0:1]
+        dy = geo.positions[None, :, 1] - P[:, 1:2]
+        rho_t = np.hypot(dx, dy)
+        beta_t = _wrap_array(np.arctan2(dy, dx) - P[:, 2:3])
+        rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * E[:, :, 0]
+        rho = np.maximum(rho, 0.0)
+        beta = _wrap_array(beta_t + self.sigma_bearing * E[:, :, 1])
+        world_ids = geo.ids.astype(np.int64)
+        out = []
+        for f in range(F):
+            idx = np.flatnonzero(seen[f])
+            ids_true = world_ids[idx]
+            ids = ids_true.copy()
+            if self.p_misread > 0.0:
+                for j, i in enumerate(idx):
+                    if U[f, i, 0] < self.p_misread:
+                        ids[j] = self._wrong_id(int(ids_true[j]), world_ids, U[f, i, 1],
+                                                U[f, i, 2])
+            z = np.column_stack([rho[f, idx], beta[f, idx]])
+            z_true = np.column_stack([rho_t[f, idx], beta_t[f, idx]])
+            true_ids = ids_true
+            u_out = V[f]
+            if u_out[0] < self.p_outlier:
+                r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
+                b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
+                id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
+                ids = np.append(ids, id_o)
+                z = np.vstack([z, [r_o, b_o]])
+                z_true = np.vstack([z_true, [np.nan, np.nan]])
+                true_ids = np.append(true_ids, -1)
+            out.append(Observations(times[f], ids, z, true_ids, z_true,
+                                    t_arrival=times[f] + latency))
+        return out
 
     def _read(self, geo: _Geometry, pose: np.ndarray, rng: np.random.Generator) -> Observations:
         """:meth:`read` on a checked pose and the world's arrays (the simulator's loop)."""

@@ -318,7 +318,8 @@ class KobukiSim:
     """
 
     def __init__(self, world: World, *, sensor=None, seed: int = 0,
-                 params: KobukiParams | None = None, start_pose=None):
+                 params: KobukiParams | None = None, start_pose=None,
+                 defer_reads: bool = False):
         self.world = world
         self.sensor = sensor
         self.params = params = params or KobukiParams()
@@ -345,13 +346,20 @@ class KobukiSim:
         self._geometry = (_Geometry(world) if isinstance(sensor, AnalyticMarkerSensor)
                           and type(sensor).read is AnalyticMarkerSensor.read else None)
         self._next_frame = 0            # index j of the next camera frame, at t = j / rate
+        # The analytic sensor's frames may be read at the end, all at once (simulate: nobody
+        # looks at them during the run): the same draws in the same order, the same numbers.
+        self._deferred: list | None = [] if defer_reads and self._geometry is not None else None
+        self._slip: list = []           # standard normal pairs drawn ahead (the same sequence)
 
     @property
     def t(self) -> float:
         """The simulated time now (s)."""
         return self.times[-1]
 
-    def _capture(self, j: int, p: np.ndarray) -> Observations:
+    def _capture(self, j: int, p: np.ndarray) -> Observations | None:
+        if self._deferred is not None:          # read in record(), with the other frames
+            self._deferred.append((j, p))
+            return None
         if self._geometry is not None:          # the analytic sensor: the world's arrays once
             obs = self.sensor._read(self._geometry, p, self._rng_sense)
         else:
@@ -372,8 +380,10 @@ class KobukiSim:
         """
         params, k = self.params, self.k
         b, r, dt = params.wheel_base, params.wheel_radius, params.dt
-        slip = params.sigma_wheel * self._rng_motion.standard_normal(2)
-        gR, gL = VR + slip[0], VL + slip[1]
+        if not self._slip:              # 2 normals per period, 256 periods at a time
+            self._slip = self._rng_motion.standard_normal((256, 2)).tolist()[::-1]
+        eR, eL = self._slip.pop()
+        gR, gL = VR + params.sigma_wheel * eR, VL + params.sigma_wheel * eL
         v, w = 0.5 * (gR + gL), (gL - gR) / b
         pose = self.pose
         captured = []
@@ -384,7 +394,9 @@ class KobukiSim:
                 break
             frac = max(x - k, 0.0) if kk == k else 0.0
             p = pose if frac < 1e-9 else integrate_arc(pose, v, w, frac * dt)
-            captured.append(self._capture(self._next_frame, p))
+            obs = self._capture(self._next_frame, p)
+            if obs is not None:
+                captured.append(obs)
             self._next_frame += 1
         self.pose = integrate_arc(pose, v, w, dt)
         self._angle_R += VR * dt / r
@@ -405,6 +417,11 @@ class KobukiSim:
         ``finished`` go into the run's meta.
         """
         params = self.params
+        if self._deferred:
+            frames, self._deferred = self._deferred, []
+            self.frames.extend(self.sensor._read_frames(
+                self._geometry, [p for _, p in frames], [j / self._rate for j, _ in frames],
+                self._latency, self._rng_sense))
         t = np.array(self.times)
         meta = {
             "world": self.world.name, "seed": self.seed, "duration": float(t[-1]),
@@ -460,7 +477,8 @@ def simulate(world: World, controller: WaypointController, *, sensor=None, seed:
     Run
     """
     as_positive("max_duration", max_duration)
-    sim = KobukiSim(world, sensor=sensor, seed=seed, params=params, start_pose=start_pose)
+    sim = KobukiSim(world, sensor=sensor, seed=seed, params=params, start_pose=start_pose,
+                    defer_reads=True)
     ctl = replace(controller)
     ctl.reset()
     n_max = int(math.ceil(max_duration * sim.params.encoder_rate))

@@ -158,3 +158,29 @@ def test_a_run_with_a_bad_reading_is_refused_when_made():
         CameraRows(**{**good, "rho": [1.0, np.nan]})
     with pytest.raises(ValueError, match="ranges >= 0"):
         CameraRows(**{**good, "rho": [1.0, -0.5]})
+
+
+@pytest.mark.parametrize("faults", [{}, {"p_misread": 0.2, "p_outlier": 0.3}])
+def test_frames_read_at_the_end_equal_frames_read_one_by_one(faults):
+    """simulate() reads the analytic sensor's frames all at once at the end; a KobukiSim that
+    reads each frame when it is captured gives the same run, bit for bit."""
+    from dataclasses import replace
+
+    from slamlib.sim import KobukiSim, WaypointController, arena_loop_waypoints, simulate
+    from slamlib.worlds import load_world
+
+    world = load_world("report_arena")
+    sensor = AnalyticMarkerSensor(**faults)
+    ctl = WaypointController(arena_loop_waypoints())
+    run = simulate(world, ctl, sensor=sensor, seed=9, max_duration=20.0)
+    s = KobukiSim(world, sensor=sensor, seed=9)
+    c = replace(ctl)
+    c.reset()
+    while s.k < 20.0 * s.params.encoder_rate and not c.done:
+        s.step(*c.command(s.pose, s.params.dt, s.params.wheel_base))
+    one_by_one = s.record()
+    assert len(run.camera) > 50
+    for name in ("t_capture", "t_arrival", "id", "rho", "bearing", "true_id", "true_rho",
+                 "true_bearing"):
+        np.testing.assert_array_equal(getattr(run.camera, name), getattr(one_by_one.camera, name))
+    np.testing.assert_array_equal(run.truth, one_by_one.truth)
