@@ -158,12 +158,14 @@ class CameraRows:
             return out
         starts = np.flatnonzero(np.r_[True, np.diff(self.t_capture) != 0.0])
         ends = np.r_[starts[1:], len(self)]
-        for a, b in zip(starts, ends):
-            out.append(Observations(
-                float(self.t_capture[a]), self.id[a:b].copy(),
-                np.column_stack([self.rho[a:b], self.bearing[a:b]]), self.true_id[a:b].copy(),
-                np.column_stack([self.true_rho[a:b], self.true_bearing[a:b]]),
-                t_arrival=float(self.t_arrival[a])))
+        # fresh arrays for the frames (views of these, not of the rows)
+        ids, true_ids = self.id.copy(), self.true_id.copy()
+        z = np.column_stack([self.rho, self.bearing])
+        z_true = np.column_stack([self.true_rho, self.true_bearing])
+        t_cap, t_arr = self.t_capture[starts].tolist(), self.t_arrival[starts].tolist()
+        for i, (a, b) in enumerate(zip(starts.tolist(), ends.tolist())):
+            out.append(Observations(t_cap[i], ids[a:b], z[a:b], true_ids[a:b], z_true[a:b],
+                                    t_arrival=t_arr[i]))
         return out
 
 
