@@ -53,25 +53,18 @@ sequential nearest neighbour.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass
 
 import numpy as np
 
+from .metrics import chi2_quantile
+
 __all__ = ["individual_d2", "nearest_neighbour", "pair_covariance", "joint_distance",
-           "JCBBResult", "jcbb", "chi2_threshold", "DEFAULT_MAX_NODES"]
+           "JCBBResult", "jcbb", "DEFAULT_MAX_NODES"]
 
 #: Default bound on the number of nodes JCBB visits in one frame.
 DEFAULT_MAX_NODES = 10_000
 
-
-def chi2_threshold(prob: float, dof: int) -> float:
-    """``chi2.ppf(prob, dof)``; closed form ``-2 ln(1 - prob)`` for 2 degrees of freedom."""
-    if dof == 2:
-        return float(-2.0 * math.log1p(-prob))
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(prob, dof))
 
 
 def individual_d2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -234,7 +227,7 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
     y = np.asarray(y, dtype=float)
     d2 = np.asarray(d2, dtype=float)
     k = d2.shape[0]
-    thr1 = chi2_threshold(gate, 2)
+    thr1 = chi2_quantile(gate, 2)
     cands = []
     for i in range(k):
         js = np.flatnonzero(d2[i] < thr1) if d2.size else np.zeros(0, np.int64)
@@ -243,7 +236,7 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
     left = np.zeros(k + 1, dtype=int)
     for i in range(k - 1, -1, -1):
         left[i] = left[i + 1] + (1 if cands[i] else 0)
-    thresholds = [0.0] + [chi2_threshold(gate, 2 * m) for m in range(1, k + 1)]
+    thresholds = [0.0] + [chi2_quantile(gate, 2 * m) for m in range(1, k + 1)]
 
     best = {"assign": np.full(k, -1, dtype=np.int64), "pairs": 0, "d2": 0.0, "leaf": False}
     nodes = 0

@@ -108,6 +108,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour, pair_covariance
+from .metrics import chi2_quantile
 from .models import (
     KOBUKI_WHEEL_BASE,
     _check_motion_args,
@@ -136,12 +137,7 @@ def gate_threshold(gate: float | None, dof: int = 2) -> float:
     """
     if gate is None:
         return float("inf")
-    g = _check_gate(gate)
-    if dof == 2:
-        return float(-2.0 * np.log1p(-g))
-    from scipy.stats import chi2
-
-    return float(chi2.ppf(g, dof))
+    return chi2_quantile(_check_gate(gate), dof)
 
 
 def _check_gate(gate):

@@ -25,6 +25,7 @@
 
 from __future__ import annotations
 
+import math
 from typing import NamedTuple
 
 import numpy as np
@@ -130,15 +131,22 @@ def nis(innovation, S) -> np.ndarray | float:
 
 
 def chi2_quantile(prob: float, dof: float) -> float:
-    """``chi2.ppf(prob, dof)``, the chi-square quantile (e.g. the gate of chapter 05)."""
-    from scipy.stats import chi2
+    """``chi2.ppf(prob, dof)``, the chi-square quantile: the course's one function for it
+    (the gate of chapter 05, JCBB's joint gate of chapter 09, the NEES bands).
 
+    For 2 degrees of freedom the chi-square CDF is ``1 - exp(-x/2)``, so the
+    quantile has the closed form ``-2 ln(1 - prob)`` (5.991 for 0.95), used here.
+    """
     p = as_finite_scalar("prob", prob)
     if not 0.0 < p < 1.0:
         raise ValueError(f"prob: expected a probability in (0, 1), got {p}")
     k = as_finite_scalar("dof", dof)
     if k <= 0:
         raise ValueError(f"dof: expected a positive number of degrees of freedom, got {k}")
+    if k == 2:
+        return float(-2.0 * math.log1p(-p))
+    from scipy.stats import chi2
+
     return float(chi2.ppf(p, k))
 
 
