@@ -38,10 +38,11 @@ import numbers
 import numpy as np
 
 from . import experiments as ex
-from .ekf import EKFSLAM, UpdateReport, _as_ids, _as_reading_noise, _as_readings, gate_threshold
+from .ekf import EKFSLAM, UpdateReport, gate_threshold
 from .metrics import mahalanobis2
 from .models import KOBUKI_WHEEL_BASE, inverse_observation_jacobians, inverse_observe
 from .runs import Run
+from .validate import as_marker_ids, as_reading_covariances, as_readings
 
 __all__ = ["Candidate", "ConfirmedSLAM", "confirmed_slam"]
 
@@ -172,9 +173,9 @@ class ConfirmedSLAM(EKFSLAM):
         added) by this reading, ``"candidate"`` for one held back, ``"duplicate"``
         for a second reading of an unmapped id in the same call.
         """
-        ids = _as_ids(ids)                                           # the base class's checks
-        z = _as_readings(z, ids.shape[0])
-        Rk = _as_reading_noise(R, self.R, ids.shape[0])
+        ids = as_marker_ids(ids)                                           # the base class's checks
+        z = as_readings(z, ids.shape[0])
+        Rk = as_reading_covariances(R, self.R, ids.shape[0])
         self.frame += 1
         mapped = np.isin(ids, self.landmark_ids)
         first = super().update(ids[mapped], z[mapped], np.ascontiguousarray(Rk[mapped]))

@@ -102,7 +102,6 @@ from __future__ import annotations
 
 import math
 import numbers
-from collections.abc import Mapping
 from dataclasses import dataclass
 
 import numpy as np
@@ -119,7 +118,17 @@ from .models import (
     inverse_observe,
     wrap_angle,
 )
-from .validate import as_covariance, as_finite_scalar, as_positive, as_vector
+from .validate import (
+    as_covariance,
+    as_finite_scalar,
+    as_landmark_map,
+    as_marker_ids,
+    as_positive,
+    as_reading_covariances,
+    as_readings,
+    as_vector,
+    count_readings,
+)
 
 __all__ = ["EKFLocalization", "EKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM", "UpdateReport",
            "gate_threshold", "predict_readings"]
@@ -160,21 +169,6 @@ def _check_association(association, gate):
         raise ValueError(f"gate: association={association!r} needs a gate probability (e.g. "
                          f"0.95), not None: without a gate every reading would match a landmark")
     return association
-
-
-def _count_readings(z) -> int:
-    """Number of rows of z (readings without ids), for :func:`_as_readings`."""
-    try:
-        a = np.asarray(z, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
-    if a.ndim == 2:
-        return a.shape[0]
-    if a.shape == (2,):
-        return 1
-    if a.size == 0:
-        return 0
-    raise ValueError(f"z: expected shape (k, 2), got {a.shape}")
 
 
 def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -327,101 +321,6 @@ class UpdateReport:
 
 
 # --------------------------------------------------------------------------- input checks
-def _as_ids(ids) -> np.ndarray:
-    if ids is None:
-        raise ValueError("ids: None (readings without ids) needs a filter built with "
-                         "association='nn' or association='jcbb'; this one has "
-                         "association='ids': pass the marker ids, update(ids, z)")
-    try:
-        a = np.asarray(ids)
-    except (TypeError, ValueError) as exc:  # pragma: no cover - ragged input
-        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got {ids!r}") from exc
-    if a.ndim == 0:
-        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got the scalar {ids!r}")
-    if a.ndim != 1:
-        raise ValueError(f"ids: expected shape (k,), got {a.shape}")
-    if a.size == 0:
-        return np.zeros(0, dtype=np.int64)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer)
-                               or np.issubdtype(a.dtype, np.floating)):
-        raise ValueError(f"ids: expected integer marker ids, got dtype {a.dtype}")
-    if np.issubdtype(a.dtype, np.floating):
-        if not np.all(np.isfinite(a)):
-            raise ValueError(f"ids: expected finite integer marker ids, got {a} (NaN or inf)")
-        if not np.all(a == np.round(a)):
-            raise ValueError(f"ids: expected integer marker ids, got {a}")
-    return a.astype(np.int64)
-
-
-def _as_readings(z, k: int) -> np.ndarray:
-    try:
-        a = np.asarray(z, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
-    if k == 0 and a.size == 0:
-        return np.zeros((0, 2))
-    if a.ndim == 1 and a.shape == (2,) and k == 1:
-        a = a.reshape(1, 2)
-    if a.shape != (k, 2):
-        raise ValueError(f"z: expected shape ({k}, 2) for {k} ids, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        bad = int(np.argwhere(~np.isfinite(a))[0, 0])
-        raise ValueError(f"z: expected finite readings, row {bad} is {a[bad]} (NaN or inf)")
-    if np.any(a[:, 0] < 0.0):
-        bad = int(np.argmax(a[:, 0] < 0.0))
-        raise ValueError(f"z: expected non-negative ranges z[:, 0], row {bad} has range "
-                         f"{a[bad, 0]}")
-    return a
-
-
-def _as_reading_noise(R, default: np.ndarray, k: int) -> np.ndarray:
-    """R as (k, 2, 2): one matrix for all readings or one per reading, each checked."""
-    if R is None:
-        return np.broadcast_to(default, (k, 2, 2))
-    try:
-        a = np.asarray(R, dtype=float)
-    except (TypeError, ValueError) as exc:
-        raise ValueError(f"R: expected a (2, 2) or ({k}, 2, 2) array, got {R!r}") from exc
-    if a.ndim == 2:
-        return np.broadcast_to(as_covariance("R", a, 2), (k, 2, 2))
-    if a.ndim != 3 or a.shape != (k, 2, 2):
-        raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
-                         f"got {a.shape}")
-    # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
-    if np.isfinite(a).all():                   # the usual case, the same checks in fewer steps
-        scale = np.maximum(1.0, np.abs(a).max(axis=(1, 2)))
-        if ((np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale).all()
-                and (a[:, 0, 0] > 0.0).all()
-                and (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0).all()):
-            return 0.5 * (a + a.transpose(0, 2, 1))
-    finite = np.all(np.isfinite(a), axis=(1, 2))
-    scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
-    sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
-    pd = (a[:, 0, 0] > 0.0) & (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0)
-    bad = np.flatnonzero(~(finite & sym & pd))
-    if bad.size:
-        i = int(bad[0])
-        as_covariance(f"R[{i}]", a[i], 2)     # raises with the precise reason
-        raise ValueError(f"R[{i}]: expected a positive-definite matrix")  # pragma: no cover
-    return 0.5 * (a + a.transpose(0, 2, 1))
-
-
-def _as_landmark_map(landmarks) -> dict[int, np.ndarray]:
-    if not isinstance(landmarks, Mapping):
-        raise ValueError("landmarks: expected a dict {marker id: (x, y)}, got "
-                         f"{type(landmarks).__name__}")
-    out: dict[int, np.ndarray] = {}
-    for key, pos in landmarks.items():
-        if isinstance(key, (bool, np.bool_)) or not isinstance(key, (numbers.Integral,
-                                                                       np.integer)):
-            raise ValueError(f"landmarks: expected integer marker ids as keys, got {key!r}")
-        k = int(key)
-        if k in out:
-            raise ValueError(f"landmarks: duplicate marker id {k}")
-        out[k] = as_vector(f"landmarks[{k}]", pos, 2).copy()
-    return out
-
-
 # --------------------------------------------------------------------------- the shared filter
 class _EKFBase:
     """The semantics shared by every filter of the course; subclasses set the algebra."""
@@ -629,10 +528,10 @@ class _EKFBase:
         # -------- association step: without ids (chapter 09) the filter pairs the readings
         if ids is None or self.association != "ids":
             return self._update_without_ids(ids, z, R)
-        ids = _as_ids(ids)
+        ids = as_marker_ids(ids)
         k = ids.shape[0]
-        z = _as_readings(z, k)
-        return self._update_ids(ids, z, _as_reading_noise(R, self.R, k))
+        z = as_readings(z, k)
+        return self._update_ids(ids, z, as_reading_covariances(R, self.R, k))
 
     def _update_ids(self, ids: np.ndarray, z: np.ndarray, Rk: np.ndarray) -> UpdateReport:
         """:meth:`update` with ids on checked arrays: ids int (k,), z (k, 2), Rk (k, 2, 2).
@@ -726,16 +625,16 @@ class _EKFBase:
         reading was paired with or, when unpaired, to the one of smallest ``d2``.
         """
         if self.association == "ids":
-            _as_ids(None)                     # raises: None needs association "nn"/"jcbb"
+            as_marker_ids(None)                     # raises: None needs association "nn"/"jcbb"
         if ids is not None:
             raise ValueError(f"ids: this filter (association={self.association!r}) pairs the "
                              f"readings itself: call update(None, z) without ids, or build "
                              f"it with association='ids' to use the ids")
         if self.gate is None:
             _check_association(self.association, None)
-        k = _count_readings(z)
-        z = _as_readings(z, k)
-        Rk = _as_reading_noise(R, self.R, k)
+        k = count_readings(z)
+        z = as_readings(z, k)
+        Rk = as_reading_covariances(R, self.R, k)
 
         keys = list(self.landmark_ids)
         found = [self._lookup(m) for m in keys]
@@ -1065,7 +964,7 @@ class EKFLocalization(_EKFBase):
 
     def __init__(self, x0, P0, Q, R, landmarks, wheel_base: float = KOBUKI_WHEEL_BASE,
                  gate: float | None = 0.95, association: str = "ids"):
-        lm = _as_landmark_map(landmarks)
+        lm = as_landmark_map(landmarks)
         super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=0,
                          association=association)
         self._map = lm
@@ -1281,7 +1180,7 @@ class IdealEKFSLAM(EKFSLAM):
             raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
         super().__init__(*args, **kwargs)               # EKFSLAM's constructor
         self._truth = truth
-        self._true_map = _as_landmark_map(landmarks)
+        self._true_map = as_landmark_map(landmarks)
         self.t = as_finite_scalar("t0", t0)
         if innovation not in ("truth", "estimate"):
             raise ValueError(f"innovation: expected 'truth' or 'estimate', got {innovation!r}")

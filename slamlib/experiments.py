@@ -29,13 +29,13 @@ from .ekf import (
     EKFLocalization,
     IdealEKFSLAM,
     UpdateReport,
-    _as_reading_noise,
     _EKFBase,
 )
 from .metrics import ate, nees, pose_error
 from .models import wrap_angle
 from .runs import Run
 from .sensors import AnalyticMarkerSensor
+from .validate import as_reading_covariances
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
            "dead_reckoning", "localization", "slam", "fej_slam", "ideal_slam", "truth_function",
@@ -233,7 +233,7 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
                 break
             if checked:
                 report = filt._update_ids(obs.ids, obs.z, R if sensor_R_ok else
-                                          _as_reading_noise(R, filt.R, len(obs)))
+                                          as_reading_covariances(R, filt.R, len(obs)))
             else:
                 report = filt.update(obs.ids, obs.z, R=R)
         rec.record(t, "predict" if kind == 0 else "update", filt, report)

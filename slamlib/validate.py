@@ -8,11 +8,14 @@ says what was expected, instead of a NaN three chapters later.
 from __future__ import annotations
 
 import json
+import numbers
+from collections.abc import Mapping
 
 import numpy as np
 
 __all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar",
-           "read_json_file"]
+           "read_json_file", "as_marker_ids", "as_readings", "count_readings",
+           "as_reading_covariances", "as_landmark_map"]
 
 
 def as_vector(name: str, value, size: int | None = None) -> np.ndarray:
@@ -147,3 +150,122 @@ def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
         return json.loads(p.read_text(encoding="utf-8")), p
     except json.JSONDecodeError as exc:
         raise error(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from exc
+
+
+# --------------------------------------------------------------------------- the filters' inputs
+# What every filter's update checks (slamlib.ekf, slamlib.confirmation, the runners).
+
+def count_readings(z) -> int:
+    """Number of rows of z (readings without ids), for :func:`_as_readings`."""
+    try:
+        a = np.asarray(z, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
+    if a.ndim == 2:
+        return a.shape[0]
+    if a.shape == (2,):
+        return 1
+    if a.size == 0:
+        return 0
+    raise ValueError(f"z: expected shape (k, 2), got {a.shape}")
+
+
+def as_marker_ids(ids) -> np.ndarray:
+    """Marker ids as an int64 array (k,): integers, or floats with integer values.
+
+    ``None`` (readings without ids) raises, saying which filters take it.
+    """
+    if ids is None:
+        raise ValueError("ids: None (readings without ids) needs a filter built with "
+                         "association='nn' or association='jcbb'; this one has "
+                         "association='ids': pass the marker ids, update(ids, z)")
+    try:
+        a = np.asarray(ids)
+    except (TypeError, ValueError) as exc:  # pragma: no cover - ragged input
+        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got {ids!r}") from exc
+    if a.ndim == 0:
+        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got the scalar {ids!r}")
+    if a.ndim != 1:
+        raise ValueError(f"ids: expected shape (k,), got {a.shape}")
+    if a.size == 0:
+        return np.zeros(0, dtype=np.int64)
+    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer)
+                               or np.issubdtype(a.dtype, np.floating)):
+        raise ValueError(f"ids: expected integer marker ids, got dtype {a.dtype}")
+    if np.issubdtype(a.dtype, np.floating):
+        if not np.all(np.isfinite(a)):
+            raise ValueError(f"ids: expected finite integer marker ids, got {a} (NaN or inf)")
+        if not np.all(a == np.round(a)):
+            raise ValueError(f"ids: expected integer marker ids, got {a}")
+    return a.astype(np.int64)
+
+
+def as_readings(z, k: int) -> np.ndarray:
+    """Readings ``[range, bearing]`` as a finite float array (k, 2) with ranges >= 0."""
+    try:
+        a = np.asarray(z, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"z: expected a (k, 2) array of [range, bearing], got {z!r}") from exc
+    if k == 0 and a.size == 0:
+        return np.zeros((0, 2))
+    if a.ndim == 1 and a.shape == (2,) and k == 1:
+        a = a.reshape(1, 2)
+    if a.shape != (k, 2):
+        raise ValueError(f"z: expected shape ({k}, 2) for {k} ids, got {a.shape}")
+    if not np.all(np.isfinite(a)):
+        bad = int(np.argwhere(~np.isfinite(a))[0, 0])
+        raise ValueError(f"z: expected finite readings, row {bad} is {a[bad]} (NaN or inf)")
+    if np.any(a[:, 0] < 0.0):
+        bad = int(np.argmax(a[:, 0] < 0.0))
+        raise ValueError(f"z: expected non-negative ranges z[:, 0], row {bad} has range "
+                         f"{a[bad, 0]}")
+    return a
+
+
+def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
+    """R as (k, 2, 2): one matrix for all readings or one per reading, each checked."""
+    if R is None:
+        return np.broadcast_to(default, (k, 2, 2))
+    try:
+        a = np.asarray(R, dtype=float)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"R: expected a (2, 2) or ({k}, 2, 2) array, got {R!r}") from exc
+    if a.ndim == 2:
+        return np.broadcast_to(as_covariance("R", a, 2), (k, 2, 2))
+    if a.ndim != 3 or a.shape != (k, 2, 2):
+        raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
+                         f"got {a.shape}")
+    # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
+    if np.isfinite(a).all():                   # the usual case, the same checks in fewer steps
+        scale = np.maximum(1.0, np.abs(a).max(axis=(1, 2)))
+        if ((np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale).all()
+                and (a[:, 0, 0] > 0.0).all()
+                and (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0).all()):
+            return 0.5 * (a + a.transpose(0, 2, 1))
+    finite = np.all(np.isfinite(a), axis=(1, 2))
+    scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
+    sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
+    pd = (a[:, 0, 0] > 0.0) & (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0)
+    bad = np.flatnonzero(~(finite & sym & pd))
+    if bad.size:
+        i = int(bad[0])
+        as_covariance(f"R[{i}]", a[i], 2)     # raises with the precise reason
+        raise ValueError(f"R[{i}]: expected a positive-definite matrix")  # pragma: no cover
+    return 0.5 * (a + a.transpose(0, 2, 1))
+
+
+def as_landmark_map(landmarks) -> dict[int, np.ndarray]:
+    """A known map ``{marker id: (2,)}``: integer keys, finite positions (copies)."""
+    if not isinstance(landmarks, Mapping):
+        raise ValueError("landmarks: expected a dict {marker id: (x, y)}, got "
+                         f"{type(landmarks).__name__}")
+    out: dict[int, np.ndarray] = {}
+    for key, pos in landmarks.items():
+        if isinstance(key, (bool, np.bool_)) or not isinstance(key, (numbers.Integral,
+                                                                       np.integer)):
+            raise ValueError(f"landmarks: expected integer marker ids as keys, got {key!r}")
+        k = int(key)
+        if k in out:
+            raise ValueError(f"landmarks: duplicate marker id {k}")
+        out[k] = as_vector(f"landmarks[{k}]", pos, 2).copy()
+    return out
