@@ -156,7 +156,7 @@ def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
 # What every filter's update checks (slamlib.ekf, slamlib.confirmation, the runners).
 
 def count_readings(z) -> int:
-    """Number of rows of z (readings without ids), for :func:`_as_readings`."""
+    """Number of rows of z (readings without ids), for :func:`as_readings`."""
     try:
         a = np.asarray(z, dtype=float)
     except (TypeError, ValueError) as exc:
