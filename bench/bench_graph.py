@@ -27,14 +27,14 @@ import numpy as np
 
 from slamlib import graph
 from slamlib.ekf import EKFSLAM
-from slamlib.experiments import _R, DEFAULT_P0, reading_covariances
+from slamlib.experiments import DEFAULT_P0, default_R, reading_covariances
 from slamlib.studies import random_loop_run
 
 
 def ekf_step_times(run) -> tuple[np.ndarray, np.ndarray]:
     """Seconds of each camera step of EKF SLAM (predictions since the last frame + update)
     and the landmarks in the map after it."""
-    f = EKFSLAM(run.start_pose, DEFAULT_P0, run.Q(), _R(run), wheel_base=run.wheel_base)
+    f = EKFSLAM(run.start_pose, DEFAULT_P0, run.Q(), default_R(run), wheel_base=run.wheel_base)
     sensor = run.sensor()
     secs, sizes, acc = [], [], 0.0
     for ev in run.events():

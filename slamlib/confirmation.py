@@ -222,9 +222,6 @@ def confirmed_slam(run: Run, *, gate: float | None = 0.95, n_confirm: int = 2,
                    max_gap: int = 2, confirm: float = 0.95, Q=None, P0=ex.DEFAULT_P0,
                    by: str = "capture", until: float | None = None) -> ex.Trace:
     """:func:`slamlib.experiments.slam` with :class:`ConfirmedSLAM` (chapter 05)."""
-    Q = run.Q() if Q is None else Q
-    sensor = run.sensor()
-    R = ex.DEFAULT_R if sensor is None else sensor.R(2.0)
-    filt = ConfirmedSLAM(run.start_pose, P0, Q, R, wheel_base=run.wheel_base, gate=gate,
-                         n_confirm=n_confirm, max_gap=max_gap, confirm=confirm)
+    filt = ex.make_filter(ConfirmedSLAM, run, Q=Q, P0=P0, gate=gate, n_confirm=n_confirm,
+                          max_gap=max_gap, confirm=confirm)
     return ex.run_filter(run, filt, by=by, until=until)

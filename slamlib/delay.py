@@ -498,19 +498,16 @@ def delayed_run(latency: float, *, scenario: str = "arena_loop", seed: int | Non
 
 
 def make_filter(run: Run, kind: str = "slam", gate: float | None = 0.95):
-    """The filter the course runs on ``run``: EKF SLAM or the map-based EKF on the true map,
-    from the first true pose, with the run's Q and the sensor's R at 2 m."""
+    """The filter the course runs on ``run``: EKF SLAM or the map-based EKF on the true map
+    (:func:`slamlib.experiments.make_filter`: the first true pose, the run's Q, its
+    sensor's R at 2 m)."""
     from .ekf import EKFSLAM, EKFLocalization
-    from .experiments import DEFAULT_P0, DEFAULT_R
+    from .experiments import make_filter as make
 
-    sensor = run.sensor()
-    R = DEFAULT_R if sensor is None else sensor.R(2.0)
     if kind == "slam":
-        return EKFSLAM(run.start_pose, DEFAULT_P0, run.Q(), R, wheel_base=run.wheel_base,
-                       gate=gate)
+        return make(EKFSLAM, run, gate=gate)
     if kind == "localization":
-        return EKFLocalization(run.start_pose, DEFAULT_P0, run.Q(), R, run.world().landmarks(),
-                               wheel_base=run.wheel_base, gate=gate)
+        return make(EKFLocalization, run, gate=gate, landmarks=run.world().landmarks())
     raise ValueError(f"kind: expected 'slam' or 'localization', got {kind!r}")
 
 

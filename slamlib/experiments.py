@@ -38,6 +38,7 @@ from .sensors import AnalyticMarkerSensor
 from .validate import as_reading_covariances
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
+           "make_filter", "default_R",
            "dead_reckoning", "localization", "slam", "fej_slam", "ideal_slam", "truth_function",
            "sensor_noise", "map_error", "DEFAULT_P0", "DEFAULT_R"]
 
@@ -259,7 +260,7 @@ def sensor_noise(run: Run):
     return None
 
 
-def _R(run: Run, *, needed: bool = True) -> np.ndarray:
+def default_R(run: Run, *, needed: bool = True) -> np.ndarray:
     """The filter's default reading covariance for ``run``: its sensor's ``R`` at 2 m.
 
     A run whose readings come from a sensor the meta does not describe gets
@@ -279,11 +280,27 @@ def _R(run: Run, *, needed: bool = True) -> np.ndarray:
                      f"reading)")
 
 
+def make_filter(cls, run: Run, *, Q=None, P0=DEFAULT_P0, R=None, gate: float | None = 0.95,
+                **options):
+    """The course's one way to build a filter for ``run``: ``cls`` at the run's first true pose.
+
+    ``cls(run.start_pose, P0, Q, R, wheel_base=run.wheel_base, gate=gate, **options)``
+    with the run's own ``Q`` (:meth:`Run.Q`, its simulated slip) and the R of
+    its sensor at 2 m (:func:`default_R`: a ValueError when the run has readings
+    from a sensor it does not describe) unless ``Q`` or ``R`` are given.
+    ``options`` go to the class (``landmarks=`` for the map-based EKF,
+    ``association=``, ``n_confirm=``...). Every runner of this module, chapter
+    08's delayed filters and chapter 09's study build their filters here.
+    """
+    return cls(run.start_pose, P0, run.Q() if Q is None else Q,
+               default_R(run) if R is None else R, wheel_base=run.wheel_base, gate=gate,
+               **options)
+
+
 def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = None) -> Trace:
     """Prediction only, from the run's first true pose (chapter 01, the report's Fig. 4)."""
-    Q = run.Q() if Q is None else Q
-    filt = EKFLocalization(run.start_pose, P0, Q, _R(run, needed=False), landmarks={},
-                           wheel_base=run.wheel_base)
+    filt = make_filter(EKFLocalization, run, Q=Q, P0=P0, R=default_R(run, needed=False),
+                       landmarks={})
     rec = TraceRecorder(run.enc_t[0], filt)
     u, dt = run.controls()
     for k in range(dt.shape[0]):
@@ -297,10 +314,8 @@ def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = 
 def localization(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
                  by: str = "capture", landmarks=None, use_sensor_R: bool = True) -> Trace:
     """The map-based EKF on the run's world (chapter 03, the report's Figs. 5 and 6)."""
-    Q = run.Q() if Q is None else Q
     lm = run.world().landmarks() if landmarks is None else landmarks
-    filt = EKFLocalization(run.start_pose, P0, Q, _R(run) if R is None else R, lm,
-                           wheel_base=run.wheel_base, gate=gate)
+    filt = make_filter(EKFLocalization, run, Q=Q, P0=P0, R=R, gate=gate, landmarks=lm)
     return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None)
 
 
@@ -334,9 +349,7 @@ def ideal_slam(run: Run, **kwargs) -> Trace:
 def _slam_with(cls, run: Run, extra: dict, *, gate: float | None = 0.95, Q=None,
                P0=DEFAULT_P0, R=None, by: str = "capture", use_sensor_R: bool = True,
                max_time: float | None = None, until: float | None = None) -> Trace:
-    Q = run.Q() if Q is None else Q
-    filt = cls(run.start_pose, P0, Q, _R(run) if R is None else R,
-               wheel_base=run.wheel_base, gate=gate, **extra)
+    filt = make_filter(cls, run, Q=Q, P0=P0, R=R, gate=gate, **extra)
     return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
                       max_time=max_time, until=until)
 

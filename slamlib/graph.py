@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 import gtsam
 import numpy as np
 
-from .experiments import _R, DEFAULT_P0, Trace, map_error, reading_covariances
+from .experiments import DEFAULT_P0, Trace, default_R, map_error, reading_covariances
 from .metrics import ate
 from .models import compose_poses, inverse_observe, motion_jacobians, motion_model, wrap_angle
 from .runs import Run
@@ -284,7 +284,7 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
         raise ValueError(f"odometry_floor: expected a variance >= 0, got {odometry_floor}")
     Q = run.Q() if Q is None else as_covariance("Q", Q, 2, semidefinite=True)
     P0 = as_covariance("P0", P0, 3)
-    R_default = _R(run) if R is None else as_covariance("R", R, 2)
+    R_default = default_R(run) if R is None else as_covariance("R", R, 2)
     sensor = run.sensor() if (use_sensor_R and R is None) else None
     if max_steps is not None and int(max_steps) < 1:
         raise ValueError(f"max_steps: expected a positive integer or None, got {max_steps}")

@@ -542,9 +542,7 @@ def observability(filter_cls, run: Run, t_end: float = 20.0, **kwargs) -> Observ
     first-estimate ones). Only the landmarks that were fused at least once
     are kept (a landmark seen only when it was added constrains nothing).
     """
-    Q = run.Q() if kwargs.get("Q") is None else kwargs["Q"]
-    filt = filter_cls(run.start_pose, ex.DEFAULT_P0, Q, ex._R(run), wheel_base=run.wheel_base,
-                      gate=kwargs.get("gate", 0.95))
+    filt = ex.make_filter(filter_cls, run, Q=kwargs.get("Q"), gate=kwargs.get("gate", 0.95))
     phi = [np.eye(3)]
     rows = []                                   # (Phi so far, slots, Hp, Hl)
     predict_cov, fuse = filt._predict_cov, filt._fuse

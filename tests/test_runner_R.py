@@ -23,7 +23,18 @@ def _with_sensor(run, meta_sensor):
     return r
 
 
-@pytest.mark.parametrize("runner", [ex.slam, ex.localization, ex.fej_slam])
+def _delayed_slam(run):
+    from slamlib import delay
+    return delay.make_filter(run, "slam")
+
+
+def _confirmed(run):
+    from slamlib.confirmation import confirmed_slam
+    return confirmed_slam(run)
+
+
+@pytest.mark.parametrize("runner", [ex.slam, ex.localization, ex.fej_slam, _delayed_slam,
+                                    _confirmed])
 def test_unknown_sensor_with_readings_raises_saying_what_to_pass(run, runner):
     r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
     with pytest.raises(ValueError, match=r"R: run .*SomeoneElsesSensor.*pass R="):
@@ -43,13 +54,13 @@ def test_camera_runs_take_the_noise_model_they_were_recorded_with(run):
           "sigma_range_b": 0.002, "sigma_bearing": 0.0005, "corrected": True}
     r = _with_sensor(run, {"type": "CameraMarkerSensor", "noise_model": nm})
     model = NoiseModel(**nm)
-    assert np.array_equal(ex._R(r), model.R(2.0))
-    tr = ex.run_filter(r, ex.EKFSLAM(r.start_pose, ex.DEFAULT_P0, r.Q(), ex._R(r)), until=20.0)
+    assert np.array_equal(ex.default_R(r), model.R(2.0))
+    tr = ex.run_filter(r, ex.make_filter(ex.EKFSLAM, r), until=20.0)
     p = tr.pending
     assert np.array_equal(p.R, np.stack([model.R(rho) for rho in p.obs.z[:, 0]]))
 
 
-def test_dead_reckoning_and_runs_without_readings_need_no_R(run):
+def test_dead_reckoning_and_runs_without_readings_need_nodefault_R(run):
     r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
     assert np.array_equal(ex.dead_reckoning(r).x, ex.dead_reckoning(run).x)
     quiet = sim.scenario("arena_loop", seed=2, max_range=0.21, min_range=0.2)

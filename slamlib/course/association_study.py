@@ -41,12 +41,10 @@ STUDY_SETTINGS = {"scenario": "arena_loop", "p_outlier": 0.1, "max_time": 30.0,
 def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: float = 0.95,
                 n_confirm: int = 2):
     """The chapter's filter for ``run``: ConfirmedSLAM (or plain EKFSLAM) with that association."""
-    R = run.sensor().R(2.0)
-    args = (run.start_pose, ex.DEFAULT_P0, run.Q(), R)
     if not confirmed:
-        return EKFSLAM(*args, wheel_base=run.wheel_base, gate=gate, association=association)
-    return ConfirmedSLAM(*args, wheel_base=run.wheel_base, gate=gate, association=association,
-                         n_confirm=n_confirm)
+        return ex.make_filter(EKFSLAM, run, gate=gate, association=association)
+    return ex.make_filter(ConfirmedSLAM, run, gate=gate, association=association,
+                          n_confirm=n_confirm)
 
 
 def run_without_ids(run: Run, filt, *, max_time: float | None = None):
