@@ -100,6 +100,7 @@ are exactly what they were.
 
 from __future__ import annotations
 
+import functools
 import math
 import numbers
 from dataclasses import dataclass
@@ -845,7 +846,17 @@ class _EKFBase:
         return 0.5 * (S + S.transpose(0, 2, 1))
 
     def _fuse(self, slots, Hp, Hl, y, R) -> float:
-        """One joint update with m readings, O(n^2 m); returns the joint NIS."""
+        """One joint update with m readings, O(n^2 m) in one pass over P; returns the joint NIS.
+
+        With ``S = H P H^T + R = L L^T`` (Cholesky, 2m x 2m) and the whitened
+        gain ``W = L^-1 H P`` (2m x n), ``K = W^T L^-1``, so::
+
+            x <- x + W^T (L^-1 y),   P <- P - W^T W,   NIS = |L^-1 y|^2
+
+        and ``P - W^T W = P - K S K^T`` is the Joseph form at this gain (see the
+        module docstring). Only W, n x 2m, is made; P changes in place (a small P through
+        one n x n product, see :func:`_subtract_symmetric_low_rank`).
+        """
         P, n, m = self._P, self._n, slots.size
         sl = slots.tolist()
         lm = list(dict.fromkeys(s for s in sl if s >= 0))   # observed landmarks, once
@@ -857,16 +868,14 @@ class _EKFBase:
             if s >= 0:
                 c = where[s]
                 Hc[2 * j:2 * j + 2, c:c + 2] = Hl[j]
-        G = P[:n, cols] @ Hc.T                       # P H^T, n x 2m
-        S = Hc @ G[cols] + _block_diag(R)            # H P H^T + R, 2m x 2m
-        S = 0.5 * (S + S.T)
-        S_inv = _inverse_2x2(S) if m == 1 else np.linalg.inv(S)   # small: 2m x 2m
-        K = G @ S_inv                                # P H^T S^-1, n x 2m
-        yv = y.reshape(-1)
-        self._x[:n] += K @ yv
-        E = G - 0.5 * (K @ S)                        # Joseph: P - E K^T - K E^T
-        _subtract_symmetric_low_rank(P, n, E, K)
-        return float(yv @ S_inv @ yv)
+        HP = Hc @ P[cols, :n]                        # H P = (P H^T)^T from rows of P, 2m x n
+        S = HP[:, cols] @ Hc.T + _block_diag(R)      # H P H^T + R, 2m x 2m
+        L = np.linalg.cholesky(0.5 * (S + S.T))      # S = L L^T
+        W = _solve_lower(L, HP)                      # L^-1 H P, 2m x n
+        v = _solve_lower(L, y.reshape(-1))           # L^-1 y, the whitened innovation
+        self._x[:n] += W.T @ v                       # K y
+        _subtract_symmetric_low_rank(P, n, W)        # P - K S K^T, in place
+        return float(v @ v)
 
     def _augment_cov(self, J1: np.ndarray, J2: np.ndarray, R: np.ndarray) -> None:
         """Fill the new landmark's rows and columns (storage already reserved): O(n)."""
@@ -876,13 +885,6 @@ class _EKFBase:
         P[n:n + 2, :n] = PLx
         P[:n, n:n + 2] = PLx.T
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
-
-
-def _inverse_2x2(S: np.ndarray) -> np.ndarray:
-    """The inverse of a symmetric positive-definite 2x2 matrix, written out."""
-    (a, b), (_, d) = S.tolist()
-    det = a * d - b * b
-    return np.array([[d / det, -b / det], [-b / det, a / det]])
 
 
 def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -896,31 +898,81 @@ def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     return (s11 * y0 * y0 - 2.0 * s01 * y0 * y1 + s00 * y1 * y1) / (s00 * s11 - s01 * s01)
 
 
-#: Rows per block in :func:`_subtract_symmetric_low_rank` (a block of P stays in cache).
-_BLOCK = 128
+def _solve_lower(L: np.ndarray, b: np.ndarray) -> np.ndarray:
+    """``L^-1 b`` for the small (2m x 2m) lower-triangular Cholesky factor L of S.
 
-
-def _subtract_symmetric_low_rank(P: np.ndarray, n: int, E: np.ndarray, K: np.ndarray) -> None:
-    """``P[:n, :n] -= E K^T + K E^T`` in place, exactly symmetric, O(n^2 m).
-
-    Works down strips of ``_BLOCK`` rows: the strip right of the diagonal is
-    computed once (one n x 4m by 4m x b product) and subtracted from both
-    ``P[I, J]`` and, transposed, ``P[J, I]``, so that a symmetric P stays
-    bitwise symmetric and no n x n temporary is made; the diagonal block is
-    symmetrised. (A plain ``M = E @ K.T; P -= M + M.T`` does the same with an
-    n x n temporary and a cache-hostile transposed pass over it.)
+    ``numpy.linalg.solve``: L is tiny, so not exploiting its triangle costs
+    nothing, while SciPy's ``solve_triangular`` was measured at about 1 ms per
+    call here (its threaded LAPACK wakes its threads for a 2 x 2 system).
     """
-    U = np.concatenate((E, K), axis=1)
-    V = np.concatenate((K, E), axis=1)
-    for i0 in range(0, n, _BLOCK):
-        i1 = min(i0 + _BLOCK, n)
-        strip = U[i0:i1] @ V[i0:n].T                 # rows i0:i1, columns i0:n
-        d = strip[:, :i1 - i0]
-        P[i0:i1, i0:i1] -= 0.5 * (d + d.T)
-        if i1 < n:
-            rest = strip[:, i1 - i0:]
-            P[i0:i1, i1:n] -= rest
-            P[i1:n, i0:i1] -= rest.T
+    return np.linalg.solve(L, b)
+
+
+@functools.cache
+def _dgemm():
+    """BLAS ``dgemm`` of :mod:`scipy.linalg.cython_blas` as a ctypes function.
+
+    ``scipy.linalg.blas.dgemm`` (f2py) takes no leading dimension: given the
+    active block ``P[:n, :n]`` of the larger storage it would copy it. The
+    Cython BLAS table exports the Fortran routine itself (every argument by
+    pointer), which takes ``ldc`` and so works in place on a block.
+    """
+    import ctypes
+
+    from scipy.linalg import cython_blas
+
+    api = ctypes.pythonapi
+    api.PyCapsule_GetName.restype = ctypes.c_char_p
+    api.PyCapsule_GetName.argtypes = [ctypes.py_object]
+    api.PyCapsule_GetPointer.restype = ctypes.c_void_p
+    api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+    capsule = cython_blas.__pyx_capi__["dgemm"]
+    address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
+    return ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * 13)(address)
+
+
+#: From this state size on, :func:`_subtract_symmetric_low_rank` works in place with one dgemm
+#: (below it, the ctypes call costs more than the n x n temporary it saves: bench_ekf.py).
+_IN_PLACE_FROM = 500
+
+
+def _subtract_symmetric_low_rank(P: np.ndarray, n: int, W: np.ndarray) -> None:
+    """``P[:n, :n] -= W^T W`` in place, with one BLAS call over P, O(n^2 k).
+
+    ``P`` is the filter's C-ordered storage (rows contiguous, row stride ``ld >= n``),
+    ``W`` is k x n. Read as a Fortran (column-major) matrix with leading
+    dimension ``ld``, the block ``P[:n, :n]`` is ``P^T = P``, and ``W`` (C-ordered)
+    is the n x k matrix ``W^T``; one ``dgemm`` with ``alpha = -1``, ``beta = 1``
+    then computes ``P <- P - W^T W`` where P lies: no n x n temporary, one read
+    and one write of each entry. Entries ``(i, j)`` and ``(j, i)`` are sums of the
+    same k products ``W_li W_lj``, which the BLAS may add in different orders, so
+    P stays symmetric to rounding (bitwise in small cases), not always bitwise.
+    """
+    k = W.shape[0]
+    if W.shape != (k, n):
+        raise ValueError(f"W: expected shape (k, {n}), got {W.shape}")
+    if (P.dtype != np.float64 or P.ndim != 2 or P.strides[1] != 8 or P.strides[0] % 8
+            or P.strides[0] < 8 * n or P.shape[0] < n or P.shape[1] < n
+            or not P.flags.writeable):
+        raise ValueError(f"P: expected a writeable float64 array with contiguous rows of at "
+                         f"least {n} entries, got dtype {P.dtype}, strides {P.strides}")
+    if n == 0 or k == 0:
+        return
+    if n <= _IN_PLACE_FROM:
+        # small P: one product (W^T W is done by BLAS's syrk, exactly symmetric) costs less
+        # than the call below; its n x n temporary is at most 2 MB
+        P[:n, :n] -= W.T @ W
+        return
+    import ctypes
+
+    W = np.ascontiguousarray(W, dtype=np.float64)
+    dims = (ctypes.c_int * 4)(n, k, P.strides[0] // 8, 0)      # n, k, ldc
+    coef = (ctypes.c_double * 2)(-1.0, 1.0)                     # alpha, beta
+    nn, kk, ldc = (ctypes.addressof(dims) + 4 * i for i in range(3))
+    alpha, beta = ctypes.addressof(coef), ctypes.addressof(coef) + 8
+    # C (n x n, ld ldc) <- alpha * A B^T + beta * C with A = B = W^T (n x k, ld n)
+    _dgemm()(b"N", b"T", nn, nn, kk, alpha, W.ctypes.data, nn, W.ctypes.data, nn,
+             beta, P.ctypes.data, ldc)
 
 
 def _block_diag(R: np.ndarray) -> np.ndarray:

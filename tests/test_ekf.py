@@ -465,22 +465,7 @@ def test_the_map_accepts_numpy_ids_and_is_copied():
 
 
 # --------------------------------------------------------------------------- the blocked algebra
-@pytest.mark.parametrize("n", [1, 5, 127, 128, 129, 300])
-def test_blocked_symmetric_correction_equals_the_formula(n):
-    from slamlib.ekf import _subtract_symmetric_low_rank
-    rng = np.random.default_rng(n)
-    A = rng.normal(size=(n, n))
-    P = A + A.T
-    E, K = rng.normal(size=(n, 4)), rng.normal(size=(n, 4))
-    want = P - E @ K.T - K @ E.T
-    big = np.zeros((n + 7, n + 7))               # the active block of a larger storage
-    big[:n, :n] = P
-    _subtract_symmetric_low_rank(big, n, E, K)
-    np.testing.assert_allclose(big[:n, :n], want, atol=1e-12)
-    assert np.array_equal(big[:n, :n], big[:n, :n].T)
-    assert not big[n:, :].any() and not big[:, n:].any()
-
-
+# (the in-place BLAS correction itself: tests/test_ekf_inplace.py)
 def test_slam_with_a_large_map_equals_dense():
     """Over 128 state entries the structured update works in several strips."""
     rng = np.random.default_rng(8)
