@@ -117,6 +117,7 @@ from .models import (
     _wrap_scalar,
     inverse_observation_jacobians,
     inverse_observe,
+    observe_landmarks,
     wrap_angle,
 )
 from .validate import (
@@ -172,60 +173,9 @@ def _check_association(association, gate):
     return association
 
 
-def predict_readings(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """Predicted readings of several landmarks and their Jacobians, vectorised.
-
-    The same formulas as :func:`slamlib.models.observe` and
-    :func:`slamlib.models.observation_jacobians` (chapter 03), for k landmarks
-    at once (the tests check that they agree). A landmark on top of the
-    robot has no bearing: its rows come back NaN.
-
-    Parameters
-    ----------
-    pose : numpy.ndarray, shape (3,)
-    landmarks : numpy.ndarray, shape (k, 2)
-
-    Returns
-    -------
-    (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
-    """
-    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
-    dx = L[:, 0] - pose[0]
-    dy = L[:, 1] - pose[1]
-    q = dx * dx + dy * dy
-    k = L.shape[0]
-    if (q > 0.0).all():                  # no landmark on the robot: the same numbers, faster
-        r = np.sqrt(q)
-        h = np.empty((k, 2))
-        h[:, 0] = r
-        h[:, 1] = _wrap_array(np.arctan2(dy, dx) - pose[2])
-        Hl = np.empty((k, 2, 2))
-        Hl[:, 0, 0] = dx / r
-        Hl[:, 0, 1] = dy / r
-        Hl[:, 1, 0] = -dy / q
-        Hl[:, 1, 1] = dx / q
-        Hp = np.empty((k, 2, 3))
-        Hp[:, :, :2] = -Hl
-        Hp[:, 0, 2] = 0.0
-        Hp[:, 1, 2] = -1.0
-        return h, Hp, Hl
-    with np.errstate(divide="ignore", invalid="ignore"):
-        r = np.sqrt(q)
-        q = np.where(q > 0.0, q, np.nan)
-        r = np.where(r > 0.0, r, np.nan)
-        h = np.stack([r, np.where(np.isfinite(q), 0.0, np.nan)], axis=1)
-        ok = np.isfinite(q)
-        h[ok, 1] = wrap_angle(np.arctan2(dy[ok], dx[ok]) - pose[2])
-        Hl = np.empty((L.shape[0], 2, 2))
-        Hl[:, 0, 0] = dx / r
-        Hl[:, 0, 1] = dy / r
-        Hl[:, 1, 0] = -dy / q
-        Hl[:, 1, 1] = dx / q
-    Hp = np.empty((L.shape[0], 2, 3))
-    Hp[:, :, :2] = -Hl
-    Hp[:, 0, 2] = 0.0
-    Hp[:, 1, 2] = -1.0
-    return h, Hp, Hl
+#: The vectorised direct observation and its Jacobians (chapter 03): the one implementation,
+#: :func:`slamlib.models.observe_landmarks`, under the name the filters' update uses.
+predict_readings = observe_landmarks
 
 
 # --------------------------------------------------------------------------- the report

@@ -31,7 +31,7 @@ __all__ = [
     "KOBUKI_WHEEL_BASE", "KOBUKI_WHEEL_RADIUS", "KOBUKI_TICKS_PER_REV",
     "wrap_angle", "tick_difference", "wheel_speeds", "wheel_speeds_from_ticks",
     "body_velocity", "motion_model", "motion_jacobians", "motion_model_batch",
-    "observe", "observation_jacobians",
+    "observe", "observation_jacobians", "observe_landmarks",
     "polar_to_cartesian", "polar_to_cartesian_jacobian",
     "compose_point", "compose_point_jacobians",
     "compose_poses", "compose_poses_jacobians", "invert_pose",
@@ -320,7 +320,8 @@ def observe(pose, landmark) -> np.ndarray:
     """Direct observation ``z = h(x_B, x_F)`` (report V.A, chapter 03).
 
     ``rho = sqrt(dx^2 + dy^2)`` and ``beta = atan2(dy, dx) - theta`` (wrapped),
-    with ``dx = x_F - x_B`` and ``dy = y_F - y_B``.
+    with ``dx = x_F - x_B`` and ``dy = y_F - y_B``: :func:`observe_landmarks`
+    for one landmark.
 
     Parameters
     ----------
@@ -332,14 +333,18 @@ def observe(pose, landmark) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (2,)
-        ``[rho, beta]``.
+        ``[rho, beta]`` (a landmark on the robot: range 0, bearing ``-theta``).
     """
-    pose, dx, dy = _delta(pose, landmark)
-    return np.array([np.hypot(dx, dy), wrap_angle(np.arctan2(dy, dx) - pose[2])])
+    pose = as_vector("pose", pose, 3)
+    landmark = as_vector("landmark", landmark, 2)
+    h = observe_landmarks(pose, landmark[None, :])[0][0]
+    if not np.isfinite(h[1]):              # on the robot: range 0, atan2(0, 0) = 0
+        h = np.array([0.0, wrap_angle(-pose[2])])
+    return h
 
 
 def observation_jacobians(pose, landmark) -> tuple[np.ndarray, np.ndarray]:
-    """Jacobians of :func:`observe` (chapter 03).
+    """Jacobians of :func:`observe` (chapter 03): :func:`observe_landmarks` for one landmark.
 
     With ``q = dx^2 + dy^2`` and ``r = sqrt(q)``::
 
@@ -354,17 +359,64 @@ def observation_jacobians(pose, landmark) -> tuple[np.ndarray, np.ndarray]:
     ValueError
         If the landmark coincides with the robot (the bearing is undefined).
     """
-    _, dx, dy = _delta(pose, landmark)
-    q = dx * dx + dy * dy
-    if q == 0.0:
+    pose = as_vector("pose", pose, 3)
+    landmark = as_vector("landmark", landmark, 2)
+    _, H_pose, H_landmark = observe_landmarks(pose, landmark[None, :])
+    if not np.isfinite(H_landmark).all():
         raise ValueError("landmark: coincides with the robot's position; "
                          "the bearing and its Jacobian are undefined")
-    r = np.sqrt(q)
-    H_pose = np.array([[-dx / r, -dy / r, 0.0],
-                       [dy / q, -dx / q, -1.0]])
-    H_landmark = np.array([[dx / r, dy / r],
-                           [-dy / q, dx / q]])
-    return H_pose, H_landmark
+    return H_pose[0], H_landmark[0]
+
+
+def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+    """The direct observation of k landmarks and its Jacobians, vectorised (chapter 03).
+
+    The one implementation of ``h`` and ``H``: :func:`observe` and
+    :func:`observation_jacobians` are this function for one landmark, and the
+    filters' update runs it on every landmark a frame reads (as
+    ``slamlib.ekf.predict_readings``). Per landmark, with ``dx = x_F - x_B``,
+    ``dy = y_F - y_B``, ``q = dx^2 + dy^2`` and ``r = sqrt(q)``::
+
+        h          = [r, atan2(dy, dx) - theta]          (bearing wrapped)
+        H_pose     = [[-dx/r, -dy/r,  0],   H_landmark = [[ dx/r, dy/r],
+                      [ dy/q, -dx/q, -1]]                 [-dy/q, dx/q]]
+
+    A landmark on top of the robot has no bearing: its rows come back NaN.
+
+    Parameters
+    ----------
+    pose : numpy.ndarray, shape (3,)
+    landmarks : numpy.ndarray, shape (k, 2)
+
+    Returns
+    -------
+    (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
+    """
+    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    dx = L[:, 0] - pose[0]
+    dy = L[:, 1] - pose[1]
+    q = dx * dx + dy * dy
+    k = L.shape[0]
+    r = np.hypot(dx, dy)
+    h = np.empty((k, 2))
+    h[:, 0] = r
+    h[:, 1] = _wrap_array(np.arctan2(dy, dx) - pose[2])
+    degenerate = not (q > 0.0).all()
+    if degenerate:                       # a landmark on the robot: its rows NaN
+        q = np.where(q > 0.0, q, np.nan)
+        r = np.where(r > 0.0, r, np.nan)
+        h[np.isnan(q)] = np.nan
+    with np.errstate(divide="ignore", invalid="ignore"):
+        Hl = np.empty((k, 2, 2))
+        Hl[:, 0, 0] = dx / r
+        Hl[:, 0, 1] = dy / r
+        Hl[:, 1, 0] = -dy / q
+        Hl[:, 1, 1] = dx / q
+    Hp = np.empty((k, 2, 3))
+    Hp[:, :, :2] = -Hl
+    Hp[:, 0, 2] = 0.0
+    Hp[:, 1, 2] = -1.0
+    return h, Hp, Hl
 
 
 # --------------------------------------------------------------------------- inverse observation
