@@ -24,12 +24,11 @@ One module per idea:
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``graph``        the same runs as a factor graph, smoothed with GTSAM (batch, iSAM2; ch. 11)
 - ``plotting``     the chapters' figures (top views are z-down seen from above)
-- ``exercises``    the exercise checkers
 - ``figures``      ``python -m slamlib.figures OUT``: every figure as files
 - ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
                    noise identified against their ground truth (``identify``), chapter 10
-- ``course``       the course's own machinery (100-seed studies in ``data/evidence``, their plots);
-                   the library never imports it
+- ``course``       the course's own machinery (exercise checkers by chapter and their harness,
+                   100-seed studies in ``data/evidence``, their plots); the library never imports it
 """
 
 __version__ = "0.1.0"

@@ -1,5 +1,8 @@
 """slamlib.course: the course's own machinery; it imports the library, never the reverse.
 
+- ``harness``            the harness every exercise checker shares (call, shapes, verdicts, hints)
+- ``checkers_ch00`` ... ``checkers_ch08``, ``checkers_appendix_a``
+                         the chapters' exercise checkers, one module per chapter
 - ``widgets``            interactive figures that also leave their default figure as an output
 - ``predictions``        predict, then measure: the student commits to a number, the cell measures
 - ``filter_checkers``    checkers for the filter the student writes (chapters 03-05, 08)

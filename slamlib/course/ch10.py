@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exercises import _call, _not_ready, _printer
+from .harness import call, name_of, not_ready, printer
 
 __all__ = ["check_wheel_speeds_from_commands"]
 
@@ -29,15 +29,15 @@ def check_wheel_speeds_from_commands(fn, n_points: int = 12, seed: int = 10,
     rate not negated, equivalently the wheels swapped), ``b w`` instead of
     ``b w / 2`` (or ``w / b``), the pair returned as ``[V_L, V_R]``.
     """
-    say = _printer(verbose)
-    name = getattr(fn, "__name__", "your function")
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     cases = [(float(rng.uniform(-0.1, 0.3)), float(rng.uniform(-1.0, 1.0)),
               float(rng.choice([0.23, 0.26, 0.35]))) for _ in range(n_points)]
     for v, w, b in cases:
-        out, problem = _call(fn, v, w, b)
+        out, problem = call(fn, v, w, b)
         if problem:
-            say(_not_ready(name, problem, "it"))
+            say(not_ready(name, problem, "it"))
             return False
         try:
             got = np.asarray(out, dtype=float).reshape(-1)
