@@ -23,12 +23,11 @@ One module per idea:
 - ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``graph``        the same runs as a factor graph, smoothed with GTSAM (batch, iSAM2; ch. 11)
-- ``plotting``     the chapters' figures (top views are z-down seen from above)
-- ``figures``      ``python -m slamlib.figures OUT``: every figure as files
 - ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
                    noise identified against their ground truth (``identify``), chapter 10
 - ``course``       the course's own machinery (exercise checkers by chapter and their harness,
-                   100-seed studies in ``data/evidence``, their plots); the library never imports it
+                   the chapters' figures, ``python -m slamlib.course.figures OUT``, 100-seed studies
+                   in ``data/evidence``); the library never imports it
 """
 
 __version__ = "0.1.0"

@@ -100,9 +100,9 @@ def reading_statuses(trace) -> np.ndarray:
 
 def plot_paths(ax, logs, world):
     """The robots' Vicon paths and the landmarks, seen from above (z-down)."""
-    from .. import plotting
+    from . import plots
 
-    plotting.world_axes(ax)
+    plots.world_axes(ax)
     pts = np.vstack([world.positions] + [lg.truth[:, :2] for lg in logs.values()])
     lo, hi = pts.min(axis=0) - 0.3, pts.max(axis=0) + 0.3
     ax.set_aspect("equal", adjustable="box")
@@ -184,10 +184,10 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
 
 def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
     """Top view of Vicon and SLAM estimates, and the position error against time."""
-    from .. import plotting
+    from . import plots
 
     a0, a1 = axes
-    plotting.world_axes(a0, log.world(), margin=0.2)
+    plots.world_axes(a0, log.world(), margin=0.2)
     a0.plot(log.truth[:, 0], log.truth[:, 1], "k", lw=1.6, label="Vicon")
     pos = log.world().positions
     a0.plot(pos[:, 0], pos[:, 1], "ks", ms=4)
