@@ -6,7 +6,6 @@ One module per idea:
 - ``models``       wheels, motion, direct and inverse observation, compounding, with Jacobians
 - ``frames``       z-up (ROS) data into the course's z-down frame
 - ``checks``       finite-difference Jacobians and entry-by-entry comparison
-- ``report``       the report's equations as printed, and the checks that expose its errors
 - ``worlds``       marker worlds (JSON): the report's arena and random ones
 - ``sim``          the simulated Kobuki: controller, wheels, encoders
 - ``sensors``      the analytic marker sensor and the readings' type
@@ -26,7 +25,8 @@ One module per idea:
 - ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
                    noise identified against their ground truth (``identify``), chapter 10
 - ``course``       the course's own machinery (exercise checkers by chapter and their harness,
-                   the chapters' figures, ``python -m slamlib.course.figures OUT``, 100-seed studies
+                   the report's errata (``errata``), the chapters' figures,
+                   ``python -m slamlib.course.figures OUT``, 100-seed studies
                    in ``data/evidence``); the library never imports it
 """
 

@@ -33,8 +33,8 @@ def test_inverse_observation_checker_accepts_an_independent_answer(capsys):
 
 def test_inverse_observation_checker_rejects_printed_J1_naming_entry_1_2(capsys):
     from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+    from slamlib.course.errata import printed_J1
     from slamlib.models import inverse_observation_jacobians
-    from slamlib.report import printed_J1
 
     def report_J1(pose, z):
         return printed_J1(pose, z), inverse_observation_jacobians(pose, z)[1]
@@ -47,8 +47,8 @@ def test_inverse_observation_checker_rejects_printed_J1_naming_entry_1_2(capsys)
 
 def test_inverse_observation_checker_rejects_printed_J2_as_transposed(capsys):
     from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+    from slamlib.course.errata import printed_J2
     from slamlib.models import inverse_observation_jacobians
-    from slamlib.report import printed_J2
 
     def report_J2(pose, z):
         return inverse_observation_jacobians(pose, z)[0], printed_J2(pose, z)
@@ -122,7 +122,7 @@ def test_observation_checker_accepts_an_independent_answer():
 
 def test_observation_checker_rejects_the_printed_jacobians_naming_the_entries(capsys):
     from slamlib.course.checkers_ch03 import check_observation_jacobians
-    from slamlib.report import printed_H_landmark, printed_H_pose
+    from slamlib.course.errata import printed_H_landmark, printed_H_pose
 
     def report(pose, landmark):
         return printed_H_pose(pose, landmark), printed_H_landmark(pose, landmark)
@@ -137,8 +137,8 @@ def test_observation_checker_rejects_the_printed_jacobians_naming_the_entries(ca
 
 def test_observation_checker_names_the_sqrt_typo(capsys):
     from slamlib.course.checkers_ch03 import check_observation_jacobians
+    from slamlib.course.errata import printed_H_pose_slam
     from slamlib.models import observation_jacobians
-    from slamlib.report import printed_H_pose_slam
 
     def report(pose, landmark):
         return printed_H_pose_slam(pose, landmark), observation_jacobians(pose, landmark)[1]
@@ -241,7 +241,7 @@ def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys
     assert "J1[1,2]" in out and "theta column" in out
     assert "^N x" not in out and "robot's position in N" not in out
 
-    from slamlib.report import printed_J1
+    from slamlib.course.errata import printed_J1
 
     def report_J1(pose, z):
         return printed_J1(pose, z), inverse_observation_jacobians(pose, z)[1]
@@ -321,7 +321,7 @@ def test_gate_checker_names_the_mistake(capsys, mistake, words):
 
 def test_gate_checker_finds_the_report_eq6(capsys):
     from slamlib.course.checkers_ch05 import check_gate
-    from slamlib.report import printed_mahalanobis2
+    from slamlib.course.errata import printed_mahalanobis2
 
     def report(z, z_pred, S, prob):
         y = np.array([z[0] - z_pred[0], np.arctan2(np.sin(z[1] - z_pred[1]),

@@ -8,6 +8,7 @@
 - ``plots_ch00`` ... ``plots_ch08``
                          the chapters' figures, one module per chapter (none for 01)
 - ``figures``            ``python -m slamlib.course.figures OUT``: every figure as files
+- ``errata``             the report's equations as printed, and the checks that expose its errors
 - ``widgets``            interactive figures that also leave their default figure as an output
 - ``predictions``        predict, then measure: the student commits to a number, the cell measures
 - ``filter_checkers``    checkers for the filter the student writes (chapters 03-05, 08)
