@@ -9,7 +9,8 @@ One module per idea:
 - ``worlds``       marker worlds (JSON): the report's arena and random ones
 - ``sim``          the simulated Kobuki: controller, wheels, encoders
 - ``sensors``      the analytic marker sensor and the readings' type
-- ``vision``       the camera: rendering, ArUco detection, pose, range and bearing
+- ``vision``       the camera (a package): ``camera`` and calibration, ``markers``, ``render`` a
+                   view, ``detect`` markers and their pose, the ``noise`` model, the ``sensor``
 - ``runs``         recorded runs (CSV + JSON) and their events
 - ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
