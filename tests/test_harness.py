@@ -61,3 +61,19 @@ def test_matching_mistakes_keeps_only_rules_that_fit_every_case():
     # (0, 4): a + b and max(a, b) agree, the others tell them apart
     assert harness.matching_mistakes(rules, [4], [(0, 4)], operator.eq) == ["added", "largest"]
     assert harness.matching_mistakes(rules, [0, 0, 0], cases, operator.eq) == []
+
+
+def test_attempt_prints_the_verdict_and_returns_none_unless_there_is_an_answer(capsys):
+    def my_jacobians(x):
+        raise NotImplementedError
+
+    said = []
+    assert harness.attempt(my_jacobians, 1.0, say=said.append, what="A and W") is None
+    assert said == ["my_jacobians: not written yet (it raises NotImplementedError). "
+                    "Write A and W, then run this cell again."]
+    said.clear()
+    assert harness.attempt(lambda x: 1 / x, 0.0, say=said.append) is None
+    assert said == ["<lambda>: it raised ZeroDivisionError: float division by zero. "
+                    "Fix it, then run this cell again."]
+    said.clear()
+    assert harness.attempt(lambda x: 2 * x, 3.0, say=said.append) == 6.0 and said == []

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..frames import pose_from_zup
 from ..models import wrap_angle
-from .harness import call, name_of, not_ready, printer, shape_problem
+from .harness import attempt, name_of, printer, shape_problem
 
 __all__ = ["check_pose_from_zup"]
 
@@ -28,9 +28,8 @@ def check_pose_from_zup(fn, n_points: int = 8, seed: int = 0, verbose: bool = Tr
              for _ in range(n_points - 2)]
     poses += [np.array([1.0, 2.0, -np.pi]), np.array([-1.5, 0.5, np.pi - 1e-9])]
     for p in poses:
-        out, problem = call(fn, p.copy())
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, p.copy(), say=say)
+        if out is None:
             return False
         wrong_shape = shape_problem(name, out, (3,))
         if wrong_shape:

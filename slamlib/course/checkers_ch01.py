@@ -9,7 +9,7 @@ import numpy as np
 
 from ..checks import compare_jacobians, numerical_jacobian
 from ..models import KOBUKI_WHEEL_BASE, motion_model
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_motion_jacobians"]
 
@@ -40,9 +40,8 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
 
     name = name_of(fn)
     for i, (x, u, dt) in enumerate(_random_motion_points(n_points, seed)):
-        out, problem = call(fn, x.copy(), u.copy(), dt, wheel_base)
-        if problem:
-            say(not_ready(name, problem, "A and W"))
+        out = attempt(fn, x.copy(), u.copy(), dt, wheel_base, say=say, what="A and W")
+        if out is None:
             return False
         if not isinstance(out, (tuple, list)) or len(out) != 2:
             if isinstance(out, (tuple, list)):

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..models import wrap_angle
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_camera_to_range_bearing"]
 
@@ -62,9 +62,8 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
         return abs(a[0] - b[0]) < 1e-6 and abs(wrap_angle(a[1] - b[1])) < 1e-6
 
     for p, T in cases:
-        out, problem = call(fn, p.copy(), T.copy())
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, p.copy(), T.copy(), say=say)
+        if out is None:
             return False
         try:
             got = np.asarray(out, dtype=float).reshape(-1)

@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..checks import compare_jacobians, numerical_jacobian
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_observation_jacobians"]
 
@@ -57,9 +57,8 @@ def check_observation_jacobians(fn, n_points: int = 6, seed: int = 3,
     name = name_of(fn)
     pts = _random_observation_points(max(int(n_points), 2), seed)
     for i, (pose, lm) in enumerate(pts):
-        out, problem = call(fn, pose.copy(), lm.copy())
-        if problem:
-            say(not_ready(name, problem, "H_pose and H_landmark"))
+        out = attempt(fn, pose.copy(), lm.copy(), say=say, what="H_pose and H_landmark")
+        if out is None:
             return False
         try:
             Hp, Hl = out

@@ -9,7 +9,7 @@ import numpy as np
 
 from ..checks import compare_jacobians, numerical_jacobian
 from ..models import inverse_observe
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_inverse_observation_jacobians"]
 
@@ -52,9 +52,8 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
 
     name = name_of(fn)
     for i, (pose, z) in enumerate(_random_inverse_observation_points(n_points, seed)):
-        out, problem = call(fn, pose.copy(), z.copy())
-        if problem:
-            say(not_ready(name, problem, "J1 and J2"))
+        out = attempt(fn, pose.copy(), z.copy(), say=say, what="J1 and J2")
+        if out is None:
             return False
         try:
             J1, J2 = out

@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .harness import call, name_of, not_ready, one_number, printer
+from .harness import attempt, name_of, one_number, printer
 
 __all__ = ["check_gate"]
 
@@ -74,9 +74,8 @@ def check_gate(fn, n_points: int = 20, seed: int = 5, verbose: bool = True) -> b
     cases = list(_random_gate_cases(n_points, seed))
     got = []
     for z, z_pred, S, prob in cases:
-        out, problem = call(fn, z.copy(), z_pred.copy(), S.copy(), prob)
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, z.copy(), z_pred.copy(), S.copy(), prob, say=say)
+        if out is None:
             return False
         if (isinstance(out, (tuple, list)) and len(out) == 2
                 and isinstance(out[0], (bool, np.bool_))

@@ -7,7 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .harness import call, name_of, not_ready, one_number, printer
+from .harness import attempt, name_of, one_number, printer
 
 __all__ = ["check_average_nees_band"]
 
@@ -51,9 +51,8 @@ def check_average_nees_band(fn, verbose: bool = True) -> bool:
                              d + norm.ppf((1 + p) / 2) * np.sqrt(2 * d / n)),
     }
     for n, d, p in cases:
-        out, problem = call(fn, n, d, p)
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, n, d, p, say=say)
+        if out is None:
             return False
         try:
             lo, hi = (one_number(v) for v in out)

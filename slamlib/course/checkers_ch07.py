@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..models import wrap_angle
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_in_field_of_view"]
 
@@ -44,9 +44,8 @@ def check_in_field_of_view(fn, n_cases: int = 12, seed: int = 7, verbose: bool =
     cases = list(_random_view_cases(n_cases, seed))
     got_all = []
     for pose, pts, half, rmax in cases:
-        out, problem = call(fn, pose.copy(), pts.copy(), half, rmax)
-        if problem:
-            say(not_ready(name, problem, "the test"))
+        out = attempt(fn, pose.copy(), pts.copy(), half, rmax, say=say, what="the test")
+        if out is None:
             return False
         got = np.asarray(out).reshape(-1) if np.ndim(out) else np.asarray(out)
         if got.shape != (pts.shape[0],):

@@ -9,7 +9,7 @@ import operator
 
 import numpy as np
 
-from .harness import call, matching_mistakes, name_of, not_ready, printer
+from .harness import attempt, matching_mistakes, name_of, printer
 
 __all__ = ["check_history_index"]
 
@@ -54,9 +54,8 @@ def check_history_index(fn, seed: int = 8, verbose: bool = True) -> bool:
     cases = _history_cases(seed)
     got = []
     for times, tc in cases:
-        out, problem = call(fn, list(times) if isinstance(times, list) else times.copy(), tc)
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, list(times) if isinstance(times, list) else times.copy(), tc, say=say)
+        if out is None:
             return False
         a = np.asarray(out)
         if (a.size != 1 or not np.issubdtype(a.dtype, np.number)

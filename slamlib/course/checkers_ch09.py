@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ekf import predict_readings
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_joint_distance", "joint_distance_cases"]
 
@@ -113,9 +113,8 @@ def check_joint_distance(fn, n_cases: int = 8, seed: int = 9, verbose: bool = Tr
     say = printer(verbose)
     name = name_of(fn)
     for y, H, P, R in joint_distance_cases(n_cases, seed):
-        out, problem = call(fn, y.copy(), H.copy(), P.copy(), R.copy())
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, y.copy(), H.copy(), P.copy(), R.copy(), say=say)
+        if out is None:
             return False
         try:
             a = np.asarray(out, dtype=float)

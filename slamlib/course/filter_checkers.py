@@ -34,7 +34,7 @@ from ..models import (
     observe,
     wrap_angle,
 )
-from .harness import call, name_of, not_ready, printer
+from .harness import attempt, call, name_of, not_ready, printer
 
 __all__ = ["check_predict_covariance", "check_stacked_jacobian", "check_joint_update",
            "check_augment", "check_trace_nees", "check_consistency_verdict"]
@@ -189,9 +189,8 @@ def check_predict_covariance(fn, n_cases: int = 6, seed: int = 11, verbose: bool
         A[:2, :2] += rng.normal(0, 0.05, (2, 2))      # a general A: A^T differs from A
         W = rng.normal(0.0, 0.1, (3, 2))
         Q = np.diag(rng.uniform(1e-3, 5e-3, 2))
-        out, problem = call(fn, P.copy(), A.copy(), W.copy(), Q.copy())
-        if problem:
-            say(not_ready(name, problem, "the prediction"))
+        out = attempt(fn, P.copy(), A.copy(), W.copy(), Q.copy(), say=say, what="the prediction")
+        if out is None:
             return False
         got, problem = _as_array(out, P.shape)
         if problem:
@@ -265,9 +264,8 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
             slots[0] = -1                                 # a known map's landmark (chapter 03)
         Hp = rng.normal(0.0, 1.0, (m, 2, 3))
         Hl = rng.normal(0.0, 1.0, (m, 2, 2))
-        out, problem = call(fn, n, list(slots), Hp.copy(), Hl.copy())
-        if problem:
-            say(not_ready(name, problem, "H"))
+        out = attempt(fn, n, list(slots), Hp.copy(), Hl.copy(), say=say, what="H")
+        if out is None:
             return False
         want = tb.stacked_jacobian(n, slots, Hp, Hl)
         a = np.asarray(out, dtype=float) if isinstance(out, np.ndarray) else None
@@ -519,9 +517,8 @@ def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) ->
         P *= 0.2
         z = np.array([rng.uniform(0.5, 4.0), rng.uniform(-1.2, 1.2)])
         n = x.size
-        out, problem = call(fn, x.copy(), P.copy(), z.copy(), R.copy())
-        if problem:
-            say(not_ready(name, problem, "the augmentation"))
+        out = attempt(fn, x.copy(), P.copy(), z.copy(), R.copy(), say=say, what="the augmentation")
+        if out is None:
             return False
         pair, problem = _as_pair(out, ((n + 2,), (n + 2, n + 2)))
         if problem:
@@ -580,9 +577,8 @@ def check_trace_nees(fn, seed: int = 15, verbose: bool = True) -> bool:
     e[1::2, 2] = np.abs(e[1::2, 2]) + 0.03                 # these estimates cross the seam
     est = truth + e
     est[:, 2] = wrap_angle(est[:, 2])
-    out, problem = call(fn, est.copy(), truth.copy(), P.copy())
-    if problem:
-        say(not_ready(name, problem, "the NEES"))
+    out = attempt(fn, est.copy(), truth.copy(), P.copy(), say=say, what="the NEES")
+    if out is None:
         return False
     want = tb.nees(est, truth, P)
     a = np.asarray(out, dtype=float) if not isinstance(out, (tuple, list)) else None
@@ -686,9 +682,8 @@ def check_consistency_verdict(fn, seed: int = 16, verbose: bool = True) -> bool:
     name = name_of(fn)
     for nees_runs, dof, prob in _consistency_cases(seed):
         N, T = nees_runs.shape
-        out, problem = call(fn, nees_runs.copy(), dof, prob)
-        if problem:
-            say(not_ready(name, problem, "it"))
+        out = attempt(fn, nees_runs.copy(), dof, prob, say=say)
+        if out is None:
             return False
         a = np.asarray(out, dtype=float) if not isinstance(out, (tuple, list)) else None
         if a is None or a.size != 1:

@@ -12,17 +12,15 @@ act on and returns True or False. It never raises on a student's mistake:
   (a flipped sign, a transpose, swapped columns, ...).
 
 The pieces: :func:`call` runs the student's function, :func:`not_ready` words
-the verdict for one that is not written yet or raised, :func:`name_of` names it,
-:func:`printer` prints (or not, ``verbose=False``), :func:`one_number` and
+the verdict for one that is not written yet or raised, :func:`attempt` does both,
+:func:`name_of` names it, :func:`printer` prints (or not, ``verbose=False``), :func:`one_number` and
 :func:`shape_problem` check an answer's shape, and :func:`matching_mistakes`
 names the known mistakes an answer matches.
 
 The checkers, in chapter order: :mod:`~slamlib.course.checkers_ch00` ...
-:mod:`~slamlib.course.checkers_ch09`, :mod:`~slamlib.course.checkers_appendix_a`;
-the filter the student writes (chapters 03-05, 08) in
-:mod:`~slamlib.course.filter_checkers`; chapter 10 in :mod:`~slamlib.course.ch10`,
-chapter 11 in :mod:`~slamlib.course.graph_exercise`; predictions in
-:mod:`~slamlib.course.predictions`.
+:mod:`~slamlib.course.checkers_ch11`, :mod:`~slamlib.course.checkers_appendix_a`;
+those of the filter the student writes (chapters 03-05, 08) in
+:mod:`~slamlib.course.filter_checkers`; predictions in :mod:`~slamlib.course.predictions`.
 """
 
 from __future__ import annotations
@@ -31,7 +29,7 @@ from collections.abc import Callable, Iterable, Mapping
 
 import numpy as np
 
-__all__ = ["call", "printer", "not_ready", "name_of", "one_number", "shape_problem",
+__all__ = ["call", "attempt", "printer", "not_ready", "name_of", "one_number", "shape_problem",
            "matching_mistakes"]
 
 
@@ -46,6 +44,19 @@ def call(fn, *args):
     if out is None:
         return None, "not written yet (it returns None)"
     return out, None
+
+
+def attempt(fn, *args, say, what: str = "it"):
+    """Run the student's function: its answer, or None after ``say`` printed why there is none.
+
+    The common first step of a checker: ``out = attempt(fn, x, say=say, what="A and W")``,
+    then ``if out is None: return False``.
+    """
+    out, problem = call(fn, *args)
+    if problem:
+        say(not_ready(name_of(fn), problem, what))
+        return None
+    return out
 
 
 def printer(verbose: bool):
