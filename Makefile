@@ -20,7 +20,7 @@ $(STAMP): environment.txt pyproject.toml
 
 ## Regenerate every figure (the report's Figs. 2-8 and the course's own) into figures/
 figures: $(STAMP)
-	$(PY) -m slamlib.figures figures
+	$(PY) -m slamlib.course.figures figures
 
 ## Lint, unit/property/consistency tests (the web edition in Chromium too), every notebook under
 ## nbval, and the proof that the committed notebooks are what `make notebooks` writes

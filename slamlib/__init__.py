@@ -6,11 +6,11 @@ One module per idea:
 - ``models``       wheels, motion, direct and inverse observation, compounding, with Jacobians
 - ``frames``       z-up (ROS) data into the course's z-down frame
 - ``checks``       finite-difference Jacobians and entry-by-entry comparison
-- ``report``       the report's equations as printed, and the checks that expose its errors
 - ``worlds``       marker worlds (JSON): the report's arena and random ones
 - ``sim``          the simulated Kobuki: controller, wheels, encoders
 - ``sensors``      the analytic marker sensor and the readings' type
-- ``vision``       the camera: rendering, ArUco detection, pose, range and bearing
+- ``vision``       the camera (a package): ``camera`` and calibration, ``markers``, ``render`` a
+                   view, ``detect`` markers and their pose, the ``noise`` model, the ``sensor``
 - ``runs``         recorded runs (CSV + JSON) and their events
 - ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
@@ -23,13 +23,12 @@ One module per idea:
 - ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``graph``        the same runs as a factor graph, smoothed with GTSAM (batch, iSAM2; ch. 11)
-- ``plotting``     the chapters' figures (top views are z-down seen from above)
-- ``exercises``    the exercise checkers
-- ``figures``      ``python -m slamlib.figures OUT``: every figure as files
 - ``datasets``     real data in its original format: the UTIAS MRCLAM robots (``mrclam``) and
                    noise identified against their ground truth (``identify``), chapter 10
-- ``course``       the course's own machinery (100-seed studies in ``data/evidence``, their plots);
-                   the library never imports it
+- ``course``       the course's own machinery (exercise checkers by chapter and their harness,
+                   the report's errata (``errata``), the chapters' figures,
+                   ``python -m slamlib.course.figures OUT``, 100-seed studies
+                   in ``data/evidence``); the library never imports it
 """
 
 __version__ = "0.1.0"

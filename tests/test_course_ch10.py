@@ -2,7 +2,7 @@
 
 import numpy as np
 
-from slamlib.course.ch10 import check_wheel_speeds_from_commands
+from slamlib.course.checkers_ch10 import check_wheel_speeds_from_commands
 from slamlib.datasets.mrclam import commands_to_wheel_speeds
 from slamlib.models import body_velocity
 

@@ -1,4 +1,4 @@
-"""Tests of the exercise checkers (slamlib.exercises): each accepts a right answer and
+"""Tests of the exercise checkers (slamlib.course.checkers_*): each accepts a right answer and
 rejects wrong ones with a message that names the problem."""
 
 import numpy as np
@@ -7,7 +7,7 @@ import pytest
 
 # --------------------------------------------------------------------------- chapter 04
 def test_inverse_observation_checker_accepts_the_library(capsys):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
     from slamlib.models import inverse_observation_jacobians
 
     assert check_inverse_observation_jacobians(inverse_observation_jacobians) is True
@@ -16,7 +16,7 @@ def test_inverse_observation_checker_accepts_the_library(capsys):
 
 def test_inverse_observation_checker_accepts_an_independent_answer(capsys):
     # written out from the closed form, not from the library
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
 
     def mine(pose, z):
         rho, b = z
@@ -32,9 +32,9 @@ def test_inverse_observation_checker_accepts_an_independent_answer(capsys):
 
 
 def test_inverse_observation_checker_rejects_printed_J1_naming_entry_1_2(capsys):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+    from slamlib.course.errata import printed_J1
     from slamlib.models import inverse_observation_jacobians
-    from slamlib.report import printed_J1
 
     def report_J1(pose, z):
         return printed_J1(pose, z), inverse_observation_jacobians(pose, z)[1]
@@ -46,9 +46,9 @@ def test_inverse_observation_checker_rejects_printed_J1_naming_entry_1_2(capsys)
 
 
 def test_inverse_observation_checker_rejects_printed_J2_as_transposed(capsys):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+    from slamlib.course.errata import printed_J2
     from slamlib.models import inverse_observation_jacobians
-    from slamlib.report import printed_J2
 
     def report_J2(pose, z):
         return inverse_observation_jacobians(pose, z)[0], printed_J2(pose, z)
@@ -60,7 +60,7 @@ def test_inverse_observation_checker_rejects_printed_J2_as_transposed(capsys):
 
 
 def test_inverse_observation_checker_wrong_J2_is_not_called_transposed(capsys):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
     from slamlib.models import inverse_observation_jacobians
 
     def flipped(pose, z):
@@ -74,7 +74,7 @@ def test_inverse_observation_checker_wrong_J2_is_not_called_transposed(capsys):
 
 @pytest.mark.parametrize("kind", ["none", "raise"])
 def test_inverse_observation_checker_stub_is_not_written_yet(capsys, kind):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
 
     def my_inverse_observation_jacobians(pose, z):
         if kind == "raise":
@@ -86,7 +86,7 @@ def test_inverse_observation_checker_stub_is_not_written_yet(capsys, kind):
 
 
 def test_inverse_observation_checker_never_raises(capsys):
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
 
     def broken(pose, z):
         return 1 / 0
@@ -100,7 +100,7 @@ def test_inverse_observation_checker_never_raises(capsys):
 
 # --------------------------------------------------------------------------- chapter 03
 def test_observation_checker_accepts_the_library(capsys):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
     from slamlib.models import observation_jacobians
 
     assert check_observation_jacobians(observation_jacobians) is True
@@ -109,7 +109,7 @@ def test_observation_checker_accepts_the_library(capsys):
 
 def test_observation_checker_accepts_an_independent_answer():
     # written out from the derivative of atan2, not from the library
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
 
     def mine(pose, landmark):
         dx, dy = landmark[0] - pose[0], landmark[1] - pose[1]
@@ -121,8 +121,8 @@ def test_observation_checker_accepts_an_independent_answer():
 
 
 def test_observation_checker_rejects_the_printed_jacobians_naming_the_entries(capsys):
-    from slamlib.exercises import check_observation_jacobians
-    from slamlib.report import printed_H_landmark, printed_H_pose
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+    from slamlib.course.errata import printed_H_landmark, printed_H_pose
 
     def report(pose, landmark):
         return printed_H_pose(pose, landmark), printed_H_landmark(pose, landmark)
@@ -136,9 +136,9 @@ def test_observation_checker_rejects_the_printed_jacobians_naming_the_entries(ca
 
 
 def test_observation_checker_names_the_sqrt_typo(capsys):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+    from slamlib.course.errata import printed_H_pose_slam
     from slamlib.models import observation_jacobians
-    from slamlib.report import printed_H_pose_slam
 
     def report(pose, landmark):
         return printed_H_pose_slam(pose, landmark), observation_jacobians(pose, landmark)[1]
@@ -151,7 +151,7 @@ def test_observation_checker_names_the_sqrt_typo(capsys):
 def test_observation_checker_catches_an_unwrapped_difference_at_the_seam(capsys):
     # a finite-difference answer that does not wrap the bearing passes the generic points
     # and fails only at the point whose bearing is near pi
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
     from slamlib.models import observe
 
     def unwrapped(pose, landmark, eps=1e-6):
@@ -168,7 +168,7 @@ def test_observation_checker_catches_an_unwrapped_difference_at_the_seam(capsys)
 
 @pytest.mark.parametrize("kind", ["none", "raise"])
 def test_observation_checker_stub_is_not_written_yet(capsys, kind):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
 
     def my_observation_jacobians(pose, landmark):
         if kind == "raise":
@@ -180,7 +180,7 @@ def test_observation_checker_stub_is_not_written_yet(capsys, kind):
 
 
 def test_observation_checker_never_raises(capsys):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
     from slamlib.models import observation_jacobians
 
     assert check_observation_jacobians(lambda p, m: 1 / 0) is False
@@ -197,7 +197,7 @@ def test_observation_checker_never_raises(capsys):
 
 
 def test_observation_checker_names_a_transposed_H_landmark(capsys):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
     from slamlib.models import observation_jacobians
 
     def transposed_landmark(pose, landmark):
@@ -211,7 +211,7 @@ def test_observation_checker_names_a_transposed_H_landmark(capsys):
 
 
 def test_observation_checker_hints_dbearing_dtheta(capsys):
-    from slamlib.exercises import check_observation_jacobians
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
     from slamlib.models import observation_jacobians
 
     def plus_one(pose, landmark):
@@ -228,7 +228,7 @@ def test_observation_checker_hints_dbearing_dtheta(capsys):
 def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys):
     # a wrong J1[1,2] that is not the report's ^N x typo gets the theta-column hint,
     # not the report's
-    from slamlib.exercises import check_inverse_observation_jacobians
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
     from slamlib.models import inverse_observation_jacobians
 
     def wrong_theta(pose, z):
@@ -241,7 +241,7 @@ def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys
     assert "J1[1,2]" in out and "theta column" in out
     assert "^N x" not in out and "robot's position in N" not in out
 
-    from slamlib.report import printed_J1
+    from slamlib.course.errata import printed_J1
 
     def report_J1(pose, z):
         return printed_J1(pose, z), inverse_observation_jacobians(pose, z)[1]
@@ -265,14 +265,14 @@ def _gate_answer(z, z_pred, S, prob, *, wrap=True, inverse=True, dof=2):
 
 
 def test_gate_checker_accepts_a_right_answer(capsys):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     assert check_gate(lambda z, zp, S, p: _gate_answer(z, zp, S, p)) is True
     assert "correct" in capsys.readouterr().out
 
 
 def test_gate_checker_accepts_the_closed_form_threshold(capsys):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     def mine(z, z_pred, S, prob):
         d2, _ = _gate_answer(z, z_pred, S, prob)
@@ -283,8 +283,8 @@ def test_gate_checker_accepts_the_closed_form_threshold(capsys):
 
 def test_gate_checker_agrees_with_the_library_filter_gate():
     # the library's EKF decides the same way: its gate_threshold and wrap_angle
+    from slamlib.course.checkers_ch05 import check_gate
     from slamlib.ekf import gate_threshold
-    from slamlib.exercises import check_gate
     from slamlib.models import wrap_angle
 
     def library(z, z_pred, S, prob):
@@ -297,7 +297,7 @@ def test_gate_checker_agrees_with_the_library_filter_gate():
 
 @pytest.mark.parametrize("stub", [lambda *a: None, "raise"])
 def test_gate_checker_says_not_written_yet(capsys, stub):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     def raising(*a):
         raise NotImplementedError
@@ -312,7 +312,7 @@ def test_gate_checker_says_not_written_yet(capsys, stub):
     ({"dof": 1}, "chi2.ppf(prob, 1)"),
 ])
 def test_gate_checker_names_the_mistake(capsys, mistake, words):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     assert check_gate(lambda z, zp, S, p: _gate_answer(z, zp, S, p, **mistake)) is False
     out = capsys.readouterr().out
@@ -320,8 +320,8 @@ def test_gate_checker_names_the_mistake(capsys, mistake, words):
 
 
 def test_gate_checker_finds_the_report_eq6(capsys):
-    from slamlib.exercises import check_gate
-    from slamlib.report import printed_mahalanobis2
+    from slamlib.course.checkers_ch05 import check_gate
+    from slamlib.course.errata import printed_mahalanobis2
 
     def report(z, z_pred, S, prob):
         y = np.array([z[0] - z_pred[0], np.arctan2(np.sin(z[1] - z_pred[1]),
@@ -339,7 +339,7 @@ def test_gate_checker_finds_the_report_eq6(capsys):
     (lambda p: -2.0 * np.log(p), "1 - prob"),
 ])
 def test_gate_checker_names_a_wrong_threshold(capsys, threshold, words):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     def mine(z, z_pred, S, prob):
         d2, _ = _gate_answer(z, z_pred, S, prob)
@@ -354,7 +354,7 @@ def test_gate_checker_hints_say_what_to_use_not_what_went_wrong(capsys):
     # a hint names the student's threshold as what it LOOKS like, then what to use instead
     from scipy.stats import chi2
 
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     for wrong in (lambda p: chi2.ppf(1.0 - p, 2), lambda p: chi2.ppf(p, 1)):
         def mine(z, z_pred, S, prob, wrong=wrong):
@@ -369,7 +369,7 @@ def test_gate_checker_hints_say_what_to_use_not_what_went_wrong(capsys):
 
 
 def test_gate_checker_names_a_reversed_pair(capsys):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     def reversed_pair(z, z_pred, S, prob):
         d2, accept = _gate_answer(z, z_pred, S, prob)
@@ -382,7 +382,7 @@ def test_gate_checker_names_a_reversed_pair(capsys):
 
 
 def test_gate_checker_rejects_a_wrong_shape_without_raising(capsys):
-    from slamlib.exercises import check_gate
+    from slamlib.course.checkers_ch05 import check_gate
 
     assert check_gate(lambda *a: 3.0) is False
     assert check_gate(lambda *a: (np.ones(2), True)) is False
@@ -393,7 +393,7 @@ def test_gate_checker_cases_cross_the_seam_and_straddle_the_gate():
     # the checker must exercise what it claims: wrapping matters, both decisions occur
     from scipy.stats import chi2
 
-    from slamlib.exercises import _random_gate_cases
+    from slamlib.course.checkers_ch05 import _random_gate_cases
 
     cases = list(_random_gate_cases(20, 5))
     seam = [abs(z[1] - zp[1]) > np.pi for z, zp, _, _ in cases]
@@ -414,7 +414,7 @@ def _band_by_monte_carlo(n, d, p, rng, draws=200_000):
 def test_nees_band_checker_accepts_a_right_answer_and_it_matches_a_simulation(capsys):
     from scipy.stats import chi2
 
-    from slamlib.exercises import check_average_nees_band
+    from slamlib.course.checkers_ch06 import check_average_nees_band
 
     def mine(n, d, p):
         return chi2.ppf((1 - p) / 2, n * d) / n, chi2.ppf((1 + p) / 2, n * d) / n
@@ -427,7 +427,7 @@ def test_nees_band_checker_accepts_a_right_answer_and_it_matches_a_simulation(ca
 
 @pytest.mark.parametrize("stub", [lambda n, d, p: None, "raise"])
 def test_nees_band_checker_says_not_written_yet(capsys, stub):
-    from slamlib.exercises import check_average_nees_band
+    from slamlib.course.checkers_ch06 import check_average_nees_band
 
     def raising(n, d, p):
         raise NotImplementedError
@@ -447,7 +447,7 @@ def test_nees_band_checker_says_not_written_yet(capsys, stub):
 def test_nees_band_checker_names_the_mistake(capsys, wrong, words):
     from scipy.stats import chi2, norm
 
-    from slamlib.exercises import check_average_nees_band
+    from slamlib.course.checkers_ch06 import check_average_nees_band
 
     def mine(n, d, p):
         a, b = (1 - p) / 2, (1 + p) / 2
@@ -470,7 +470,7 @@ def test_nees_band_checker_names_the_mistake(capsys, wrong, words):
 
 
 def test_nees_band_checker_rejects_a_wrong_shape_without_raising(capsys):
-    from slamlib.exercises import check_average_nees_band
+    from slamlib.course.checkers_ch06 import check_average_nees_band
 
     assert check_average_nees_band(lambda n, d, p: 3.0) is False
     assert check_average_nees_band(lambda n, d, p: (np.ones(2), 1.0)) is False
@@ -478,7 +478,7 @@ def test_nees_band_checker_rejects_a_wrong_shape_without_raising(capsys):
 
 
 def test_nees_band_checker_agrees_with_the_library_band():
-    from slamlib.exercises import check_average_nees_band
+    from slamlib.course.checkers_ch06 import check_average_nees_band
     from slamlib.metrics import chi2_band
 
     assert check_average_nees_band(lambda n, d, p: chi2_band(d, n, p), verbose=False) is True
@@ -486,8 +486,8 @@ def test_nees_band_checker_agrees_with_the_library_band():
 
 # --------------------------------------------------------------------------- chapter 08
 def test_history_index_checker_accepts_the_library_and_a_loop(capsys):
+    from slamlib.course.checkers_ch08 import check_history_index
     from slamlib.delay import history_index
-    from slamlib.exercises import check_history_index
 
     assert check_history_index(history_index) is True
     assert "correct" in capsys.readouterr().out
@@ -510,7 +510,7 @@ def test_history_index_checker_accepts_the_library_and_a_loop(capsys):
     (lambda t, tc: 0, "number of events with a time <= t_capture"),
 ])
 def test_history_index_checker_names_the_mistake(wrong, words, capsys):
-    from slamlib.exercises import check_history_index
+    from slamlib.course.checkers_ch08 import check_history_index
 
     assert check_history_index(wrong) is False
     out = capsys.readouterr().out
@@ -518,7 +518,7 @@ def test_history_index_checker_names_the_mistake(wrong, words, capsys):
 
 
 def test_history_index_checker_stub_and_bad_output_without_raising(capsys):
-    from slamlib.exercises import check_history_index
+    from slamlib.course.checkers_ch08 import check_history_index
 
     assert check_history_index(lambda t, tc: None) is False
     assert "not written yet" in capsys.readouterr().out
@@ -545,14 +545,14 @@ def _motion_jacobians_by_hand(x, u, dt, b):
 
 
 def test_motion_checker_accepts_a_right_answer(capsys):
-    from slamlib.exercises import check_motion_jacobians
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
 
     assert check_motion_jacobians(_motion_jacobians_by_hand) is True
     assert "correct" in capsys.readouterr().out
 
 
 def test_motion_checker_names_swapped_W_columns(capsys):
-    from slamlib.exercises import check_motion_jacobians
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
 
     def swapped(x, u, dt, b):
         A, W = _motion_jacobians_by_hand(x, u, dt, b)
@@ -564,7 +564,7 @@ def test_motion_checker_names_swapped_W_columns(capsys):
 
 
 def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):
-    from slamlib.exercises import check_motion_jacobians
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
 
     def wrong_A(x, u, dt, b):
         A, W = _motion_jacobians_by_hand(x, u, dt, b)
@@ -582,7 +582,7 @@ def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):
     (lambda x, u, dt, b: [np.eye(3)], "expected a pair (A, W), got a list of 1"),
 ])
 def test_motion_checker_names_a_wrong_number_of_values(answer, words, capsys):
-    from slamlib.exercises import check_motion_jacobians
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
 
     assert check_motion_jacobians(answer) is False
     assert words in capsys.readouterr().out
@@ -603,7 +603,7 @@ _COURSE_t = np.array([0.122, -0.033, 0.082])
 
 
 def test_camera_checker_accepts_a_right_answer_and_the_library(capsys):
-    from slamlib.exercises import check_camera_to_range_bearing
+    from slamlib.course.checkers_ch02 import check_camera_to_range_bearing
     from slamlib.vision import camera_to_range_bearing
 
     assert check_camera_to_range_bearing(_camera_answer) is True
@@ -612,7 +612,7 @@ def test_camera_checker_accepts_a_right_answer_and_the_library(capsys):
 
 
 def test_camera_checker_varies_the_mount():
-    from slamlib.exercises import check_camera_to_range_bearing
+    from slamlib.course.checkers_ch02 import check_camera_to_range_bearing
 
     seen = []
 
@@ -643,7 +643,7 @@ def test_camera_checker_varies_the_mount():
         T[:3, :3] @ p + T[:3, 3]), "includes the height"),
 ])
 def test_camera_checker_names_the_mistake(answer, words, capsys):
-    from slamlib.exercises import check_camera_to_range_bearing
+    from slamlib.course.checkers_ch02 import check_camera_to_range_bearing
 
     assert check_camera_to_range_bearing(answer) is False
     out = capsys.readouterr().out
@@ -657,7 +657,7 @@ def test_camera_checker_names_the_mistake(answer, words, capsys):
     (lambda p, T: np.full(2, np.nan), "wrong"),
 ])
 def test_camera_checker_stub_and_bad_output_without_raising(answer, words, capsys):
-    from slamlib.exercises import check_camera_to_range_bearing
+    from slamlib.course.checkers_ch02 import check_camera_to_range_bearing
 
     assert check_camera_to_range_bearing(answer) is False
     assert words in capsys.readouterr().out
@@ -685,7 +685,7 @@ def _view_fn(**kw):
 def test_view_checker_accepts_the_library_and_an_independent_answer(capsys):
     import math
 
-    from slamlib.exercises import check_in_field_of_view
+    from slamlib.course.checkers_ch07 import check_in_field_of_view
     from slamlib.explore import in_field_of_view
 
     def loop(pose, pts, half, rmax):
@@ -713,7 +713,7 @@ def test_view_checker_accepts_the_library_and_an_independent_answer(capsys):
     ({"squared": True}, "not its square"),
 ])
 def test_view_checker_names_the_mistake(capsys, kw, words):
-    from slamlib.exercises import check_in_field_of_view
+    from slamlib.course.checkers_ch07 import check_in_field_of_view
 
     assert check_in_field_of_view(_view_fn(**kw)) is False
     out = capsys.readouterr().out
@@ -721,7 +721,7 @@ def test_view_checker_names_the_mistake(capsys, kw, words):
 
 
 def test_view_checker_wrap_to_0_2pi_and_not_written(capsys):
-    from slamlib.exercises import check_in_field_of_view
+    from slamlib.course.checkers_ch07 import check_in_field_of_view
 
     def mod(pose, pts, half, rmax):
         d = np.asarray(pts) - pose[:2]
@@ -744,7 +744,7 @@ def test_view_checker_wrap_to_0_2pi_and_not_written(capsys):
 
 def test_view_checker_cases_need_the_wrap():
     # the unwrapped answer must be wrong somewhere, or the checker would not test the wrap
-    from slamlib.exercises import _random_view_cases
+    from slamlib.course.checkers_ch07 import _random_view_cases
     from slamlib.explore import in_field_of_view
 
     cases = list(_random_view_cases(12, 7))

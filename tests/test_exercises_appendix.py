@@ -8,7 +8,7 @@ of 5e-7: a central difference passes (about 1e-7), a one-sided one fails
 import numpy as np
 
 from slamlib.checks import numerical_jacobian
-from slamlib.exercises import check_numerical_jacobian
+from slamlib.course.checkers_appendix_a import check_numerical_jacobian
 
 
 def forward_difference(f, x, eps=1e-6):

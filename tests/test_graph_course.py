@@ -3,12 +3,12 @@
 import numpy as np
 import pytest
 
-from slamlib.course import graph_exercise, graph_study
+from slamlib.course import checkers_ch11, graph_study
 from slamlib.graph import pose_cov_to_gtsam
 
 
 def test_checker_accepts_the_library_and_names_each_mistake(capsys):
-    assert graph_exercise.check_pose_cov_to_gtsam(pose_cov_to_gtsam)
+    assert checkers_ch11.check_pose_cov_to_gtsam(pose_cov_to_gtsam)
     M = np.diag([1.0, -1.0, -1.0])
 
     def G(th):
@@ -22,13 +22,13 @@ def test_checker_accepts_the_library_and_names_each_mistake(capsys):
              "entry": lambda p, P: pose_cov_to_gtsam(p, P) + 1e-3}
     for hint, fn in wrong.items():
         capsys.readouterr()
-        assert not graph_exercise.check_pose_cov_to_gtsam(fn)
+        assert not checkers_ch11.check_pose_cov_to_gtsam(fn)
         assert hint in capsys.readouterr().out
 
     def stub(pose, P):
         raise NotImplementedError
 
-    assert not graph_exercise.check_pose_cov_to_gtsam(stub)
+    assert not checkers_ch11.check_pose_cov_to_gtsam(stub)
     assert "not written yet" in capsys.readouterr().out
 
 

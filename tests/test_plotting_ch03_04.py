@@ -8,14 +8,14 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from slamlib import plotting  # noqa: E402
+from slamlib.course import plots, plots_ch03, plots_ch04  # noqa: E402
 from slamlib.runs import load_run  # noqa: E402
 
 
 def test_ids_of_close_markers_go_to_opposite_sides():
     world = load_run("arena_loop").world()
     fig, ax = plt.subplots()
-    plotting.plot_world(ax, world)
+    plots.plot_world(ax, world)
     side = {t.get_text(): t.xyann[0] for t in ax.texts}
     plt.close(fig)
     # 51 (1.99, 1.20) and 41 (2.10, 1.20) are 0.11 m apart; 31 and 21 0.21 m
@@ -28,7 +28,7 @@ def test_ids_of_close_markers_go_to_opposite_sides():
 def test_d2_histogram_counts_the_overflow():
     fig, ax = plt.subplots()
     d2 = np.array([0.5, 1.0, 3.0, 25.0, 40.0, np.nan])
-    over = plotting.plot_d2_histogram(ax, d2, threshold=5.99, clip=20.0)
+    over = plots_ch03.plot_d2_histogram(ax, d2, threshold=5.99, clip=20.0)
     plt.close(fig)
     assert over == 2 / 5
 
@@ -37,7 +37,7 @@ def test_inverse_cloud_legend_names_the_linearised_mean():
     rng = np.random.default_rng(0)
     cloud = rng.normal(size=(200, 2))
     fig, ax = plt.subplots()
-    plotting.plot_inverse_cloud(ax, cloud, np.zeros(2), np.eye(2), pose=[0.0, -2.0, 0.3])
+    plots_ch04.plot_inverse_cloud(ax, cloud, np.zeros(2), np.eye(2), pose=[0.0, -2.0, 0.3])
     labels = [t.get_text() for t in ax.get_legend().get_texts()]
     plt.close(fig)
     assert "linearised mean" in labels and "sample mean" in labels

@@ -7,7 +7,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from slamlib import plotting  # noqa: E402
+from slamlib.course import plots, plots_ch05  # noqa: E402
 
 
 class _World:
@@ -23,11 +23,11 @@ class _Map:
 
 def test_plot_map_errors_marks_misplaced_and_spurious_ids():
     fig, ax = plt.subplots()
-    misplaced, spurious = plotting.plot_map_errors(ax, _Map(), _World(), threshold=0.3)
+    misplaced, spurious = plots_ch05.plot_map_errors(ax, _Map(), _World(), threshold=0.3)
     assert misplaced == [2] and spurious == [7]
     assert len(ax.lines) == 2
     np.testing.assert_allclose(ax.lines[0].get_xydata(), [[1.0, 0.5], [1.0, 0.0]])
-    misplaced, _ = plotting.plot_map_errors(ax, _Map(), _World(), threshold=0.01, legend=False)
+    misplaced, _ = plots_ch05.plot_map_errors(ax, _Map(), _World(), threshold=0.01, legend=False)
     assert misplaced == [1, 2]
     plt.close(fig)
 
@@ -37,7 +37,7 @@ def test_plot_error_comparison_draws_the_position_error_norm():
         t = np.array([0.0, 1.0])
         error = np.array([[0.3, 0.4, 0.1], [0.0, 0.0, -0.2]])
 
-    fig, axes = plotting.plot_error_comparison({"a": T()}, marks=[0.5], mark_label="m")
+    fig, axes = plots.plot_error_comparison({"a": T()}, marks=[0.5], mark_label="m")
     np.testing.assert_allclose(axes[0].lines[0].get_ydata(), [0.5, 0.0])
     np.testing.assert_allclose(axes[1].lines[0].get_ydata(), np.degrees([0.1, -0.2]))
     plt.close(fig)

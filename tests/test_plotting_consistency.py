@@ -1,4 +1,4 @@
-"""Tests of the chi-square band helpers of slamlib.plotting (chapter 03's NIS and NEES plots)."""
+"""Tests of the chi-square band helpers of chapter 03's NIS and NEES plots (course.plots_ch03)."""
 
 import matplotlib
 
@@ -11,7 +11,7 @@ import pytest  # noqa: E402
 
 def test_band_of_one_sample_has_the_closed_form_for_two_dof():
     # chi-square with 2 dof: CDF 1 - exp(-x/2), so the quantile of p is -2 ln(1 - p)
-    from slamlib.plotting import chi2_band_per_sample
+    from slamlib.course.plots_ch03 import chi2_band_per_sample
 
     lo, hi = chi2_band_per_sample(2, 0.95)
     assert lo == pytest.approx(-2 * np.log(1 - 0.025), rel=1e-12)
@@ -21,7 +21,7 @@ def test_band_of_one_sample_has_the_closed_form_for_two_dof():
 
 
 def test_band_holds_its_probability_by_monte_carlo():
-    from slamlib.plotting import chi2_band_per_sample
+    from slamlib.course.plots_ch03 import chi2_band_per_sample
 
     rng = np.random.default_rng(0)
     x = rng.chisquare(3, size=200_000)
@@ -31,7 +31,7 @@ def test_band_holds_its_probability_by_monte_carlo():
 
 
 def test_plot_chi2_series_returns_the_fraction_outside():
-    from slamlib.plotting import plot_chi2_series
+    from slamlib.course.plots_ch03 import plot_chi2_series
 
     rng = np.random.default_rng(1)
     dof = rng.choice([2, 4, 6], size=500)
@@ -47,7 +47,7 @@ def test_plot_chi2_series_returns_the_fraction_outside():
 
 
 def test_plot_chi2_series_rejects_bad_input():
-    from slamlib.plotting import chi2_band_per_sample, plot_chi2_series
+    from slamlib.course.plots_ch03 import chi2_band_per_sample, plot_chi2_series
 
     fig, ax = plt.subplots()
     with pytest.raises(ValueError, match="t, values"):

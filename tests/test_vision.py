@@ -16,6 +16,7 @@ import pytest
 from slamlib import vision as V
 from slamlib.models import observe
 from slamlib.sensors import Observations
+from slamlib.vision import detect
 from slamlib.worlds import Marker, World, report_arena
 
 CAM = V.default_camera()
@@ -246,7 +247,7 @@ def test_ids_from_opencv_4_column_shape_are_raveled(monkeypatch):
             corners, ids, rej = real.detectMarkers(gray)
             return corners, ids.reshape(-1, 1), rej
 
-    monkeypatch.setattr(V, "make_detector", lambda *a, **k: Shim())
+    monkeypatch.setattr(detect, "make_detector", lambda *a, **k: Shim())  # detect_markers calls it
     det = V.detect_markers(img, CAM, 0.15)
     assert det.ids.shape == (1,) and det.ids[0] == 12
 

@@ -1,16 +1,28 @@
 """slamlib.course: the course's own machinery; it imports the library, never the reverse.
 
-- ``widgets``            interactive figures that also leave their default figure as an output
-- ``predictions``        predict, then measure: the student commits to a number, the cell measures
+The chapters' exercise checkers and figures, one module per chapter, in chapter order:
+
+- ``harness``            the harness every exercise checker shares (call, shapes, verdicts, hints)
+- ``checkers_ch00`` ... ``checkers_ch11``, ``checkers_appendix_a``
+                         each chapter's exercise checker (chapter 09: the joint distance;
+                         10: wheel speeds from commands; 11: a covariance into GTSAM's frame)
 - ``filter_checkers``    checkers for the filter the student writes (chapters 03-05, 08)
+- ``predictions``        predict, then measure: the student commits to a number, the cell measures
+- ``plots``              the figure primitives every chapter shares (top views z-down seen from
+                         above, ellipses, a filter's trace and its errors)
+- ``plots_ch00`` ... ``plots_ch11``
+                         each chapter's figures (none for 01, whose figures are all primitives)
+- ``widgets``            interactive figures that also leave their default figure as an output
+- ``figures``            ``python -m slamlib.course.figures OUT``: every figure as files
+- ``errata``             the report's equations as printed, and the checks that expose its errors
+
+Studies and chapter helpers:
+
 - ``evidence``           the 100-seed studies behind chapters 02, 03, 05, 07 (``data/evidence``)
-- ``plots``              their figures
 - ``association_study``  chapter 09's study of ids / NN / JCBB (``data/studies``)
-- ``checkers_ch09``      chapter 09's exercise checker (the joint distance)
-- ``plots_ch09``         chapter 09's figures
-- ``ch10``               chapter 10's exercise checker and helpers (the MRCLAM robots)
+- ``ch10``               chapter 10's helpers: noise identified from the MRCLAM logs, logs loaded
+                         with it
 - ``graph_study``        chapter 11's study of EKF against batch and iSAM2 (``data/studies``)
 - ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
-- ``graph_plots``        chapter 11's figures
-- ``graph_exercise``     chapter 11's exercise checker (a covariance into GTSAM's frame)
+- ``student_filter``     the student's own EKF SLAM (their exercise answers) over a recorded run
 """

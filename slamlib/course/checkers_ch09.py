@@ -18,7 +18,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..ekf import predict_readings
-from ..exercises import _call, _not_ready, _printer
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_joint_distance", "joint_distance_cases"]
 
@@ -110,12 +110,11 @@ def check_joint_distance(fn, n_cases: int = 8, seed: int = 9, verbose: bool = Tr
     distances (no cross terms), R left out, S instead of S^-1, D instead of
     D^2, one R for all readings, or y stacked ranges-first.
     """
-    say = _printer(verbose)
-    name = getattr(fn, "__name__", "your function")
+    say = printer(verbose)
+    name = name_of(fn)
     for y, H, P, R in joint_distance_cases(n_cases, seed):
-        out, problem = _call(fn, y.copy(), H.copy(), P.copy(), R.copy())
-        if problem:
-            say(_not_ready(name, problem, "it"))
+        out = attempt(fn, y.copy(), H.copy(), P.copy(), R.copy(), say=say)
+        if out is None:
             return False
         try:
             a = np.asarray(out, dtype=float)

@@ -4,7 +4,7 @@ Each checker runs the student's function on seeded test states, compares the
 answer with :mod:`slamlib.ekf_textbook` (whose equations are tested against
 the fast and the dense filters) and, when it is wrong, tries the known
 mistakes one by one and names the one that reproduces the answer. They share
-the harness of :mod:`slamlib.exercises` (``"not written yet"`` for a stub, an
+the harness of :mod:`slamlib.course.harness` (``"not written yet"`` for a stub, an
 exception reported rather than raised, a verdict printed, True or False
 returned).
 
@@ -27,7 +27,6 @@ from collections.abc import Callable
 import numpy as np
 
 from .. import ekf_textbook as tb
-from ..exercises import _call, _not_ready, _printer
 from ..metrics import chi2_band
 from ..models import (
     inverse_observation_jacobians,
@@ -35,16 +34,13 @@ from ..models import (
     observe,
     wrap_angle,
 )
+from .harness import attempt, call, name_of, not_ready, printer
 
 __all__ = ["check_predict_covariance", "check_stacked_jacobian", "check_joint_update",
            "check_augment", "check_trace_nees", "check_consistency_verdict"]
 
 
 # --------------------------------------------------------------------------- the shared parts
-def _name(fn) -> str:
-    return getattr(fn, "__name__", "your function")
-
-
 def _random_state(rng, n_landmarks: int, heading: float | None = None):
     """A mean and a fully correlated covariance (every block non-zero)."""
     n = 3 + 2 * n_landmarks
@@ -182,8 +178,8 @@ def check_predict_covariance(fn, n_cases: int = 6, seed: int = 11, verbose: bool
     ``W Q W^T`` forgotten, ``A`` transposed, the map block changed, a notebook
     ``R`` where ``Q`` belongs.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     for i in range(n_cases):
         n_lm = (0, 2, 4, 1, 3, 4)[i % 6]
@@ -193,9 +189,8 @@ def check_predict_covariance(fn, n_cases: int = 6, seed: int = 11, verbose: bool
         A[:2, :2] += rng.normal(0, 0.05, (2, 2))      # a general A: A^T differs from A
         W = rng.normal(0.0, 0.1, (3, 2))
         Q = np.diag(rng.uniform(1e-3, 5e-3, 2))
-        out, problem = _call(fn, P.copy(), A.copy(), W.copy(), Q.copy())
-        if problem:
-            say(_not_ready(name, problem, "the prediction"))
+        out = attempt(fn, P.copy(), A.copy(), W.copy(), Q.copy(), say=say, what="the prediction")
+        if out is None:
             return False
         got, problem = _as_array(out, P.shape)
         if problem:
@@ -255,8 +250,8 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
     transposed (n x 2m), the landmark block transposed, the landmark block one
     landmark off (``3 + 2 slot``), the landmark columns left out.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     for i in range(n_cases):
         n_lm = int(rng.integers(2, 6))
@@ -269,9 +264,8 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
             slots[0] = -1                                 # a known map's landmark (chapter 03)
         Hp = rng.normal(0.0, 1.0, (m, 2, 3))
         Hl = rng.normal(0.0, 1.0, (m, 2, 2))
-        out, problem = _call(fn, n, list(slots), Hp.copy(), Hl.copy())
-        if problem:
-            say(_not_ready(name, problem, "H"))
+        out = attempt(fn, n, list(slots), Hp.copy(), Hl.copy(), say=say, what="H")
+        if out is None:
             return False
         want = tb.stacked_jacobian(n, slots, Hp, Hl)
         a = np.asarray(out, dtype=float) if isinstance(out, np.ndarray) else None
@@ -393,14 +387,14 @@ def check_joint_update(fn, n_cases: int = 6, seed: int = 13, verbose: bool = Tru
     the Joseph form without ``K R K^T``, ``S`` without ``R``, ``K`` without the
     inverse, the heading not wrapped; a shape error gets a hint on H's layout.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     for i, (x, P, z, h, H, Rb) in enumerate(_update_cases(rng, n_cases)):
         n = x.size
-        out, problem = _call(fn, x.copy(), P.copy(), z.copy(), h.copy(), H.copy(), Rb.copy())
+        out, problem = call(fn, x.copy(), P.copy(), z.copy(), h.copy(), H.copy(), Rb.copy())
         if problem:
-            say(_not_ready(name, problem, "the update"))
+            say(not_ready(name, problem, "the update"))
             hint = _shape_hint(problem)
             if hint:
                 say(f"  Hint: {hint}.")
@@ -513,8 +507,8 @@ def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) ->
     report's slip), ``J2`` transposed, a notebook ``Q`` where ``R`` belongs,
     the bearing not turned by the heading.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     R = np.diag([0.05 ** 2, np.radians(2.0) ** 2])
     for i in range(n_cases):
@@ -523,9 +517,8 @@ def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) ->
         P *= 0.2
         z = np.array([rng.uniform(0.5, 4.0), rng.uniform(-1.2, 1.2)])
         n = x.size
-        out, problem = _call(fn, x.copy(), P.copy(), z.copy(), R.copy())
-        if problem:
-            say(_not_ready(name, problem, "the augmentation"))
+        out = attempt(fn, x.copy(), P.copy(), z.copy(), R.copy(), say=say, what="the augmentation")
+        if out is None:
             return False
         pair, problem = _as_pair(out, ((n + 2,), (n + 2, n + 2)))
         if problem:
@@ -572,8 +565,8 @@ def check_trace_nees(fn, seed: int = 15, verbose: bool = True) -> bool:
     freedom, the position only, the mean over the trace instead of one value
     per step.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     rng = np.random.default_rng(seed)
     T = 40
     M = rng.normal(0.0, 0.1, (T, 3, 3))
@@ -584,9 +577,8 @@ def check_trace_nees(fn, seed: int = 15, verbose: bool = True) -> bool:
     e[1::2, 2] = np.abs(e[1::2, 2]) + 0.03                 # these estimates cross the seam
     est = truth + e
     est[:, 2] = wrap_angle(est[:, 2])
-    out, problem = _call(fn, est.copy(), truth.copy(), P.copy())
-    if problem:
-        say(_not_ready(name, problem, "the NEES"))
+    out = attempt(fn, est.copy(), truth.copy(), P.copy(), say=say, what="the NEES")
+    if out is None:
         return False
     want = tb.nees(est, truth, P)
     a = np.asarray(out, dtype=float) if not isinstance(out, (tuple, list)) else None
@@ -686,13 +678,12 @@ def check_consistency_verdict(fn, seed: int = 16, verbose: bool = True) -> bool:
     the average over time instead of over runs, a one-sided band, the band of
     the sum.
     """
-    say = _printer(verbose)
-    name = _name(fn)
+    say = printer(verbose)
+    name = name_of(fn)
     for nees_runs, dof, prob in _consistency_cases(seed):
         N, T = nees_runs.shape
-        out, problem = _call(fn, nees_runs.copy(), dof, prob)
-        if problem:
-            say(_not_ready(name, problem, "it"))
+        out = attempt(fn, nees_runs.copy(), dof, prob, say=say)
+        if out is None:
             return False
         a = np.asarray(out, dtype=float) if not isinstance(out, (tuple, list)) else None
         if a is None or a.size != 1:

@@ -4,7 +4,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .. import plotting
+from . import plots
 
 __all__ = ["plot_reading_gates", "plot_wrong_associations", "plot_study", "plot_jcbb_cost",
            "summarise_study"]
@@ -33,7 +33,7 @@ def plot_reading_gates(ax, report_nn, report_jcbb, labels, *, nsigma: float = 2.
     for mid, (h, S) in sorted(preds.items()):
         Sd = T @ S @ T.T
         c = T @ h
-        plotting.plot_covariance_ellipse(ax, c, Sd, nsigma=nsigma, color="0.5", alpha=0.15)
+        plots.plot_covariance_ellipse(ax, c, Sd, nsigma=nsigma, color="0.5", alpha=0.15)
         ax.plot(*c, "o", color="0.3", ms=5)
         ax.annotate(labels.get(mid, str(mid)), c, textcoords="offset points", xytext=(6, 4),
                     fontsize=9, color="0.2")

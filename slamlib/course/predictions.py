@@ -5,7 +5,7 @@ choices, written into a variable *before* anything is measured), the
 measurement (a function, run only once an answer is given, so that a stub
 reveals nothing) and the range of answers a good argument leads to. It
 prints what was measured, whether the answer was in the accepted range, and
-the argument in either case. The harness is that of :mod:`slamlib.exercises`:
+the argument in either case. The harness is that of :mod:`slamlib.course.harness`:
 ``None`` is "not written yet".
 """
 
@@ -16,7 +16,7 @@ from collections.abc import Callable, Sequence
 
 import numpy as np
 
-from ..exercises import _printer
+from .harness import printer
 
 __all__ = ["check_prediction"]
 
@@ -49,7 +49,7 @@ def check_prediction(answer, measure: Callable[[], tuple[object, str]], accept, 
     bool
         True if the answer lies in the accepted range. The verdict is printed.
     """
-    say = _printer(verbose)
+    say = printer(verbose)
     if answer is None:
         say(f"{name}: not written yet (it is None). Write your prediction into the variable "
             "first; this cell then measures it.")

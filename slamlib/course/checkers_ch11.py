@@ -12,8 +12,8 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..exercises import _call
 from ..graph import pose_cov_to_gtsam
+from .harness import attempt, name_of, printer
 
 __all__ = ["check_pose_cov_to_gtsam"]
 
@@ -33,14 +33,12 @@ def _cases(n: int, seed: int):
 
 def check_pose_cov_to_gtsam(fn, n_points: int = 6, seed: int = 11, verbose: bool = True) -> bool:
     """Check a student's ``fn(pose, P) -> Sigma`` (chapter 11); prints a verdict, returns it."""
-    say = print if verbose else (lambda *a, **k: None)
-    name = getattr(fn, "__name__", "your function")
+    say = printer(verbose)
+    name = name_of(fn)
     M = np.diag([1.0, -1.0, -1.0])
     for pose, P in _cases(n_points, seed):
-        out, problem = _call(fn, pose.copy(), P.copy())
-        if problem:
-            todo = "Write it" if problem.startswith("not written") else "Fix it"
-            say(f"{name}: {problem}. {todo}, then run this cell again.")
+        out = attempt(fn, pose.copy(), P.copy(), say=say)
+        if out is None:
             return False
         got = np.asarray(out, dtype=float)
         if got.shape != (3, 3):

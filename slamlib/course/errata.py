@@ -1,4 +1,4 @@
-"""The report's equations as printed, and the checks that expose its errors.
+"""The report's errata: its equations as printed, and the checks that expose its errors.
 
 The course implements the system of one report and corrects it. This module
 transcribes the report's Jacobians and formulas *exactly as printed* (errors
@@ -18,8 +18,8 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .checks import JacobianComparison, compare_jacobians, numerical_jacobian
-from .models import (
+from ..checks import JacobianComparison, compare_jacobians, numerical_jacobian
+from ..models import (
     compose_point,
     inverse_observation_jacobians,
     inverse_observe,
@@ -249,7 +249,7 @@ def _slam_with_two_landmarks():
 
     Returns the state and covariance before and after the second landmark, and its reading.
     """
-    from .ekf import EKFSLAM
+    from ..ekf import EKFSLAM
 
     P0 = np.diag([0.01, 0.02, 0.003])
     R = np.diag([0.05**2, np.radians(3.0) ** 2])

@@ -1,6 +1,6 @@
 """Chapter 11's figures: the factor graph of a short run, sparsity, NEES over seeds, cost.
 
-Top views follow :mod:`slamlib.plotting` (z-down seen from above: y downwards).
+Top views follow :mod:`slamlib.course.plots` (z-down seen from above: y downwards).
 """
 
 from __future__ import annotations
@@ -8,7 +8,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from ..plotting import DPI, plot_world, world_axes
+from .plots import DPI, plot_world, world_axes
 
 __all__ = ["plot_factor_graph", "plot_sparsity", "plot_nees_study", "plot_cost_per_step",
            "plot_errors_at"]

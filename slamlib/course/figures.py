@@ -1,4 +1,4 @@
-"""Every figure of the report and of the course, as files: ``python -m slamlib.figures OUTDIR``.
+"""Every figure of the report and of the course as files: ``python -m slamlib.course.figures OUT``.
 
 ``make figures`` calls this. Each figure is written as PNG and PDF under the
 report's numbering (``fig4_prediction_only.png``...) or a ``course_`` name,
@@ -7,8 +7,8 @@ same byte for byte on every run with the same library versions. A table of
 each filter run's metrics is printed at the end.
 
 The figures are drawn by the same functions the chapters call
-(:mod:`slamlib.plotting`, :mod:`slamlib.experiments`); nothing here computes
-anything a chapter does not.
+(:mod:`slamlib.course.plots`, the chapters' ``plots_chNN``, :mod:`slamlib.experiments`);
+nothing here computes anything a chapter does not.
 """
 
 from __future__ import annotations
@@ -25,8 +25,9 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from . import experiments, plotting  # noqa: E402
-from .runs import load_run  # noqa: E402
+from .. import experiments  # noqa: E402
+from ..runs import load_run  # noqa: E402
+from . import plots, plots_ch02, plots_ch05, plots_ch06, plots_ch07, plots_ch08  # noqa: E402
 
 __all__ = ["FIGURES", "make_figures", "save_figure", "main"]
 
@@ -71,8 +72,8 @@ class _Context:
 
 # --------------------------------------------------------------------------- the report's figures
 def fig2_camera_to_robot(ctx: _Context):
-    from .vision import default_camera
-    axes = plotting.plot_camera_mount(default_camera())
+    from ..vision import default_camera
+    axes = plots_ch02.plot_camera_mount(default_camera())
     fig = np.ravel(axes)[0].figure
     fig.suptitle("Fig. 2: the camera frame C and the robot frame B")
     fig.tight_layout()
@@ -80,21 +81,21 @@ def fig2_camera_to_robot(ctx: _Context):
 
 
 def fig3_feature_detection(ctx: _Context):
-    from .vision import default_camera
+    from ..vision import default_camera
     world = ctx.run("arena_loop").world()
-    fig, _ = plotting.plot_detection_scene(world, world.start_pose, default_camera(),
+    fig, _ = plots_ch02.plot_detection_scene(world, world.start_pose, default_camera(),
                                            rng=np.random.default_rng(2))
     fig.axes[0].set_title("Fig. 3: the camera's view from the start pose, markers detected")
     return fig
 
 
 def course_vision_error_study(ctx: _Context):
-    from . import vision
+    from .. import vision
     study = vision.error_study(distances=(0.5, 1.0, 2.0, 3.0, 4.0, 5.0, 6.0, 7.0),
                                angles_deg=(0.0, 15.0, 30.0, 45.0, 60.0, 75.0), samples=20,
                                seed=1)
     model = vision.fit_noise_model(study, max_angle_deg=60)
-    axes = plotting.plot_error_study(study, model)
+    axes = plots_ch02.plot_error_study(study, model)
     fig = np.ravel(axes)[0].figure
     fig.suptitle("Camera pipeline against ground truth (0.15 m markers, 640x480, f = 525 px)")
     fig.tight_layout()
@@ -104,36 +105,36 @@ def course_vision_error_study(ctx: _Context):
 def fig4_prediction_only(ctx: _Context):
     run = ctx.run("arena_loop")
     tr = ctx.trace("arena_loop: dead reckoning", "arena_loop", "dead_reckoning")
-    ax = plotting.world_axes(world=run.world())
-    plotting.plot_trace(ax, tr, run.world(), title="Fig. 4: prediction only (dead reckoning)")
+    ax = plots.world_axes(world=run.world())
+    plots.plot_trace(ax, tr, run.world(), title="Fig. 4: prediction only (dead reckoning)")
     return ax.figure
 
 
 def fig5_map_based_ekf(ctx: _Context):
     run = ctx.run("arena_loop")
     tr = ctx.trace("arena_loop: map-based EKF", "arena_loop", "localization")
-    ax = plotting.world_axes(world=run.world())
-    plotting.plot_trace(ax, tr, run.world(), title="Fig. 5: map-based EKF")
+    ax = plots.world_axes(world=run.world())
+    plots.plot_trace(ax, tr, run.world(), title="Fig. 5: map-based EKF")
     return ax.figure
 
 
 def fig6_map_based_ekf_errors(ctx: _Context):
     tr = ctx.trace("arena_loop: map-based EKF", "arena_loop", "localization")
-    fig, _ = plotting.plot_trace_errors(tr, title="Fig. 6: map-based EKF errors, 2-sigma bounds")
+    fig, _ = plots.plot_trace_errors(tr, title="Fig. 6: map-based EKF errors, 2-sigma bounds")
     return fig
 
 
 def fig7_slam(ctx: _Context):
     run = ctx.run("arena_loop")
     tr = ctx.trace("arena_loop: EKF SLAM", "arena_loop", "slam")
-    ax = plotting.world_axes(world=run.world())
-    plotting.plot_trace(ax, tr, run.world(), title="Fig. 7: EKF SLAM with gating")
+    ax = plots.world_axes(world=run.world())
+    plots.plot_trace(ax, tr, run.world(), title="Fig. 7: EKF SLAM with gating")
     return ax.figure
 
 
 def fig8_slam_errors(ctx: _Context):
     tr = ctx.trace("arena_loop: EKF SLAM", "arena_loop", "slam")
-    fig, _ = plotting.plot_trace_errors(tr, title="Fig. 8: EKF SLAM errors, 2-sigma bounds")
+    fig, _ = plots.plot_trace_errors(tr, title="Fig. 8: EKF SLAM errors, 2-sigma bounds")
     return fig
 
 
@@ -150,19 +151,19 @@ def _misreads_slam(ctx: _Context, gate: float | None):
 def course_gating_misreads(ctx: _Context):
     run = ctx.run("arena_loop_misreads")
     world = run.world()
-    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), dpi=plotting.DPI)
+    fig, axes = plt.subplots(1, 2, figsize=(10, 4.6), dpi=plots.DPI)
     for ax, gate in zip(axes, (None, 0.95)):
         tr = _misreads_slam(ctx, gate)
         label = _gating_label(gate)
-        plotting.world_axes(ax, world)
-        plotting.plot_trace(ax, tr, world, ellipse_every=1e9, show_map=True,
+        plots.world_axes(ax, world)
+        plots.plot_trace(ax, tr, world, ellipse_every=1e9, show_map=True,
                             title=f"misread ids, {label}: ATE {tr.metrics()['ate_xy']:.2f} m")
     fig.tight_layout()
     return fig
 
 
 def course_gating_errors(ctx: _Context):
-    fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=plotting.DPI)
+    fig, ax = plt.subplots(figsize=(6.4, 3.2), dpi=plots.DPI)
     for gate, color in ((None, "tab:red"), (0.95, "tab:blue")):
         tr = _misreads_slam(ctx, gate)
         ax.plot(tr.t, np.hypot(tr.error[:, 0], tr.error[:, 1]), color=color,
@@ -179,32 +180,32 @@ def course_gating_errors(ctx: _Context):
 def course_random_world_slam(ctx: _Context):
     run = ctx.run("random_loop")
     tr = ctx.trace("random_loop: EKF SLAM", "random_loop", "slam")
-    ax = plotting.world_axes(world=run.world())
-    plotting.plot_trace(ax, tr, run.world(), title="EKF SLAM in a random marker world")
+    ax = plots.world_axes(world=run.world())
+    plots.plot_trace(ax, tr, run.world(), title="EKF SLAM in a random marker world")
     return ax.figure
 
 
 def course_nees_monte_carlo(ctx: _Context):
-    from . import studies
+    from .. import studies
     mc = ctx.get("mc:arena_loop", lambda: studies.monte_carlo(
         "arena_loop", ("localization", "slam"), range(1000, 1020), step=0.5))
-    fig, _ = plotting.plot_nees_monte_carlo(
+    fig, _ = plots_ch05.plot_nees_monte_carlo(
         mc, title="Monte-Carlo NEES, arena_loop, 20 seeded runs (chapter 06)")
     return fig
 
 
 def course_nees_fej(ctx: _Context):
     """Chapter 06: EKF SLAM, the ideal EKF and FEJ over 100 seeds (stored by ``make studies``)."""
-    from . import studies
+    from .. import studies
     stored = studies.load_ch06_studies()
     names = {"slam": "EKF SLAM", "ideal": "ideal (Jacobians at the truth)", "fej": "FEJ EKF SLAM"}
-    fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plotting.DPI)
+    fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plots.DPI)
     for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10"),
                                         ("laps_0.10", "three laps, sigma_wheel 0.10"))):
         ms = stored["studies"][key]["methods"]
         curves = {names[m]: (np.array(s["t"]), np.array(s["avg"]), np.array(s["avg_heading"]))
                   for m, s in ms.items()}
-        plotting.plot_nees_averages(curves, len(stored["seeds"]), axes=row)
+        plots_ch06.plot_nees_averages(curves, len(stored["seeds"]), axes=row)
         row[0].set_title(title, fontsize=9)
     fig.tight_layout()
     return fig
@@ -213,23 +214,23 @@ def course_nees_fej(ctx: _Context):
 def course_camera_delay(ctx: _Context):
     """Chapter 08: 0.3 s late frames fused on arrival (left) and at their capture time
     (right), and the errors of both against the latency (bottom)."""
-    from . import delay
+    from .. import delay
 
     latency = 0.3
     run = delay.delayed_run(latency)
     world = run.world()
-    fig, axes = plt.subplots(2, 2, figsize=(10, 8.4), dpi=plotting.DPI,
+    fig, axes = plt.subplots(2, 2, figsize=(10, 8.4), dpi=plots.DPI,
                              gridspec_kw={"height_ratios": [1.25, 1]})
     for ax, method in zip(axes[0], ("naive", "fixed")):
         tr = delay.run_method(run, method, "slam")
         m = tr.metrics(world)
         ctx.metrics.append((f"arena_loop, camera {latency:g} s late: SLAM, {method}", m))
-        plotting.world_axes(ax, world)
-        plotting.plot_trace(ax, tr, world, ellipse_every=1e9,
+        plots.world_axes(ax, world)
+        plots.plot_trace(ax, tr, world, ellipse_every=1e9,
                             title=f"{latency:g} s late frames, {method}: ATE {m['ate_xy']:.2f} m, "
                                   f"map {m['map_rmse']:.2f} m")
     rows = delay.latency_study((0.0, 0.1, 0.2, 0.3, 0.5), kind="slam")
-    plotting.plot_latency_study(rows, ("ate_xy", "map_rmse"), axes=axes[1], legend_panel=1,
+    plots_ch08.plot_latency_study(rows, ("ate_xy", "map_rmse"), axes=axes[1], legend_panel=1,
                                 legend_loc="upper left")
     fig.suptitle("EKF SLAM with a late camera (arena loop)")
     fig.tight_layout()
@@ -237,7 +238,7 @@ def course_camera_delay(ctx: _Context):
 
 
 def _exploration(ctx: _Context):
-    from .explore import Explorer, exploration_world, explore
+    from ..explore import Explorer, exploration_world, explore
 
     def make():
         world = exploration_world(seed=5)
@@ -250,9 +251,9 @@ def _exploration(ctx: _Context):
 
 def course_exploration(ctx: _Context):
     world, ex = _exploration(ctx)
-    fig, ax = plt.subplots(figsize=(9.0, 6.2), dpi=plotting.DPI)
-    plotting.world_axes(ax, world)
-    plotting.plot_exploration(ax, ex, world,
+    fig, ax = plt.subplots(figsize=(9.0, 6.2), dpi=plots.DPI)
+    plots.world_axes(ax, world)
+    plots_ch07.plot_exploration(ax, ex, world,
                               title="Exploration steered by the SLAM estimate (chapter 07)")
     fig.tight_layout()
     return fig
@@ -260,7 +261,7 @@ def course_exploration(ctx: _Context):
 
 def course_exploration_history(ctx: _Context):
     _, ex = _exploration(ctx)
-    fig, _ = plotting.plot_exploration_history(
+    fig, _ = plots_ch07.plot_exploration_history(
         ex, title="Exploration: coverage, map and position error, returns shaded")
     return fig
 
@@ -305,7 +306,7 @@ def make_figures(out: Path, only: list[str] | None = None) -> list[tuple[str, di
     unknown = [n for n in names if n not in FIGURES]
     if unknown:
         raise ValueError(f"only: unknown figure(s) {unknown}; known: {list(FIGURES)}")
-    plt.rcParams.update({"figure.dpi": plotting.DPI, "savefig.bbox": "standard"})
+    plt.rcParams.update({"figure.dpi": plots.DPI, "savefig.bbox": "standard"})
     ctx = _Context()
     for name in names:
         files = save_figure(FIGURES[name](ctx), out, name)
@@ -314,7 +315,7 @@ def make_figures(out: Path, only: list[str] | None = None) -> list[tuple[str, di
 
 
 def main(argv: list[str] | None = None) -> int:
-    ap = argparse.ArgumentParser(prog="python -m slamlib.figures",
+    ap = argparse.ArgumentParser(prog="python -m slamlib.course.figures",
                                  description=__doc__.split("\n")[0])
     ap.add_argument("out", type=Path, help="output folder (created)")
     ap.add_argument("--only", nargs="*", help="figure names (default: all)")

@@ -1,0 +1,88 @@
+"""Appendix A's exercise checker: a finite-difference Jacobian.
+
+The verdicts follow :mod:`slamlib.course.harness`.
+"""
+
+from __future__ import annotations
+
+import numpy as np
+
+from ..checks import compare_jacobians
+from .harness import call, name_of, not_ready, printer
+
+__all__ = ["check_numerical_jacobian"]
+
+
+def check_numerical_jacobian(fn, verbose: bool = True, eps: float = 1e-3,
+                             tol: float = 5e-7) -> bool:
+    """Check a student's ``fn(f, x, eps=1e-6) -> J`` (a finite-difference Jacobian, appendix A).
+
+    It is called with ``eps=1e-3`` on functions whose Jacobians are known in
+    closed form: a linear map (3 -> 2), a nonlinear one (3 -> 3) and the
+    range-bearing of a point. The answer must have shape (outputs, inputs) and
+    be within ``tol`` = 5e-7 of the exact Jacobian: a central difference is
+    (error of order eps^2, about 1e-7 here), a one-sided one is not (order eps,
+    about 1e-3). Named mistakes: a one-sided difference, dividing by eps
+    instead of 2 eps, the transpose, an ``eps`` argument that is not accepted.
+    """
+    say = printer(verbose)
+
+    name = name_of(fn)
+    M = np.array([[1.0, -2.0, 0.5], [0.0, 3.0, -1.0]])
+    cases = [
+        ("a linear map", lambda x: M @ x, np.array([0.3, -1.2, 2.0]), lambda x: M),
+        ("a nonlinear map", lambda x: np.array([x[0] * x[1], np.sin(x[2]), x[0] ** 2 * x[2]]),
+         np.array([0.7, -0.4, 1.1]),
+         lambda x: np.array([[x[1], x[0], 0.0], [0.0, 0.0, np.cos(x[2])],
+                             [2 * x[0] * x[2], 0.0, x[0] ** 2]])),
+        ("range and bearing of a point",
+         lambda p: np.array([np.hypot(*p), np.arctan2(p[1], p[0])]),
+         np.array([1.5, -0.8]),
+         lambda p: np.array([[p[0], p[1]] / np.hypot(*p),
+                             [-p[1] / (p @ p), p[0] / (p @ p)]])),
+    ]
+
+    def one_sided(f, x, sign):
+        cols = [sign * (f(x + sign * eps * e) - f(x)) / eps for e in np.eye(x.size)]
+        return np.stack(cols, axis=1)
+
+    for label, f, x, exact in cases:
+        out, problem = call(lambda f_, x_: fn(f_, x_, eps=eps), f, x.copy())
+        if problem:
+            if problem.startswith("it raised TypeError") and "eps" in problem:
+                say(f"{name}: {problem}. The checker calls {name}(f, x, eps={eps:g}): "
+                    f"define it as def {name}(f, x, eps=1e-6) and use eps as the step.")
+            else:
+                say(not_ready(name, problem, "it"))
+            return False
+        try:
+            J = np.asarray(out, dtype=float)
+        except (TypeError, ValueError):
+            say(f"{name}: expected a numeric (m, n) array, got {type(out).__name__}.")
+            return False
+        Je = exact(x)
+        if J.shape != Je.shape:
+            transposed = J.shape == Je.T.shape
+            hint = " (transposed: rows are outputs, columns inputs)" if transposed else ""
+            say(f"{name}: for {label} expected shape {Je.shape}, got {J.shape}{hint}.")
+            return False
+        err = float(np.max(np.abs(J - Je))) if np.all(np.isfinite(J)) else float("inf")
+        if err > tol:
+            c = compare_jacobians("J", J, Je, atol=tol, rtol=0.0)
+            say(f"{name}: wrong for {label} with eps = {eps:g} (largest error {err:.2e}, "
+                f"allowed {tol:.0e}). {c.message}.")
+            if np.allclose(J, 2.0 * Je, rtol=1e-4, atol=tol):
+                say("  Hint: your J is twice the Jacobian: you divide by eps, but the central "
+                    "difference f(x + eps) - f(x - eps) spans 2 eps. Divide by 2 eps.")
+            elif any(np.allclose(J, one_sided(f, x, sg), rtol=1e-6, atol=1e-9) for sg in (1, -1)):
+                say("  Hint: this is a one-sided difference (f(x + eps) - f(x)) / eps, whose "
+                    "error is of order eps. Use the central difference "
+                    "(f(x + eps) - f(x - eps)) / (2 eps): its error is of order eps^2.")
+            elif err < 1e-2:
+                say("  Hint: the error is small but too large for a central difference at this "
+                    "eps: is it (f(x + eps e_j) - f(x - eps e_j)) / (2 eps), with the eps the "
+                    "checker passes?")
+            return False
+    say(f"{name}: correct on {len(cases)} functions with known Jacobians (eps = {eps:g}, "
+        f"error below {tol:.0e}).")
+    return True
