@@ -13,4 +13,7 @@
 - ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
 - ``graph_plots``        chapter 11's figures
 - ``graph_exercise``     chapter 11's exercise checker (a covariance into GTSAM's frame)
+- ``trace_readings``     a trace's readings end to end in flat arrays, by status, and their counts
+- ``update_preview``     an update's innovations, S, d2 and verdicts without applying it
+- ``tables``             aligned tables of results (headers, rows, one format per column)
 """
