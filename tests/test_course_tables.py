@@ -27,6 +27,11 @@ def test_missing_values_callables_and_numpy_numbers():
     assert "np.float64" not in out
 
 
+def test_a_format_can_force_the_alignment():
+    out = format_table(["name", "n"], [("a", 1), ("bbb", 22)], [">s", "<d"])
+    assert out.splitlines() == ["name  n", "   a  1", " bbb  22"]
+
+
 def test_print_table_prints_the_same(capsys):
     rows = [(1.0, "a")]
     print_table(["t", "what"], rows, [".1f", "s"])

@@ -8,8 +8,9 @@ alignment::
     print_table(["p", "ATE (m)", "rejected"], rows, [".3g", ".3f", "d"])
 
 Columns are as wide as their widest entry; text columns are aligned left,
-number columns right; a header may span several lines (``"median\\nNEES"``);
-a missing value (None or NaN) is printed as ``missing``.
+number columns right (a format ``">s"`` or ``"<"`` says otherwise); a header
+may span several lines (``"median\\nNEES"``); a missing value (None or NaN) is
+printed as ``missing``.
 """
 
 from __future__ import annotations
@@ -48,7 +49,8 @@ def format_table(headers: Sequence[str], rows: Sequence[Sequence], formats:
     formats : sequence of length c, optional
         Per column a format spec for :func:`format` (``".3f"``, ``"+.2f"``,
         ``"d"``, ``".1%"``, ``"s"``...), a callable ``value -> str``, or None
-        (``format(value, "")``). Default: None for every column.
+        (``format(value, "")``). Default: None for every column. A spec that
+        starts with ``"<"`` or ``">"`` also aligns its column left or right.
     missing : str
         What None and NaN are printed as.
     sep : str
@@ -78,6 +80,9 @@ def format_table(headers: Sequence[str], rows: Sequence[Sequence], formats:
             raise ValueError(f"rows[{j}]: expected {c} values (one per header), got {len(r)}")
     cells = [[_cell(v, f or "", missing) for v, f in zip(r, formats)] for r in rows]
     text = [all(isinstance(r[i], str) for r in rows) and bool(rows) for i in range(c)]
+    for i, f in enumerate(formats):                             # "<..." / ">...": forced
+        if isinstance(f, str) and f[:1] in "<>":
+            text[i] = f[0] == "<"
     head = [h.split("\n") for h in headers]
     depth = max(len(h) for h in head)
     head = [[""] * (depth - len(h)) + h for h in head]          # headers sit on the bottom line
