@@ -10,8 +10,8 @@ linear-algebra steps are replaced by the formulas as printed in the
 textbooks (and in the report, section V.C), with matrices as large as the
 state:
 
-- prediction (chapter 01): ``F = blkdiag(A, I)``, ``F_u = [W; 0]``,
-  ``P <- F P F^T + F_u Q F_u^T``, an O(n^3) product;
+- prediction (chapter 01): ``F = blkdiag(A, I)``, ``F_w = [W; 0]``,
+  ``P <- F P F^T + F_w Q F_w^T``, an O(n^3) product;
 - gating (chapter 05): each reading's full ``H_i`` (2 x n),
   ``S_i = H_i P H_i^T + R_i``;
 - the joint update (chapters 03, 05): the stacked ``H`` (2m x n),
@@ -31,7 +31,7 @@ functions of :mod:`slamlib.ekf_textbook` work on the *blocks* of the state
 (``P_rr``, ``P_rm``; the Joseph form in the update) and carry their own
 gating loop: they are what a chapter prints. This module keeps the
 *semantics* of :mod:`slamlib.ekf` (it inherits ``update``) and replaces the
-algebra by *full* matrices as large as the state (``F``, ``F_u``, ``G_x``,
+algebra by *full* matrices as large as the state (``F``, ``F_w``, ``G_x``,
 ``G_z``; ``(I - K H) P`` instead of the Joseph form), which is the form whose
 cost the benchmark shows. The fast filters are tested against both, so a
 mistake shared by one of them and :mod:`slamlib.ekf` would still be caught by
@@ -68,10 +68,10 @@ class _DenseAlgebra:
         n = self._n
         F = np.eye(n)
         F[:3, :3] = A
-        Fu = np.zeros((n, 2))
-        Fu[:3, :] = W
+        Fw = np.zeros((n, 2))
+        Fw[:3, :] = W
         P = self._P[:n, :n]
-        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fu @ self.Q @ Fu.T)
+        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fw @ self.Q @ Fw.T)
 
     def _innovation_covs(self, slots, Hp, Hl, R) -> np.ndarray:
         n = self._n
