@@ -113,13 +113,13 @@ def dense_slam(run, gate: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
         n = x.size
         F = np.eye(n)
         F[0, 2], F[1, 2] = -v * s_ * dt, v * c * dt
-        Fu = np.zeros((n, 2))
-        Fu[:3] = [[0.5 * c * dt, 0.5 * c * dt], [0.5 * s_ * dt, 0.5 * s_ * dt], [-dt / b, dt / b]]
+        Fw = np.zeros((n, 2))
+        Fw[:3] = [[0.5 * c * dt, 0.5 * c * dt], [0.5 * s_ * dt, 0.5 * s_ * dt], [-dt / b, dt / b]]
         x = x.copy()
         x[0] += v * c * dt
         x[1] += v * s_ * dt
         x[2] = (x[2] + w * dt + np.pi) % (2 * np.pi) - np.pi
-        P = F @ P @ F.T + Fu @ Q @ Fu.T
+        P = F @ P @ F.T + Fw @ Q @ Fw.T
     return x, P
 
 

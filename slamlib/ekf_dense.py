@@ -10,8 +10,8 @@ linear-algebra steps are replaced by the formulas as printed in the
 textbooks (and in the report, section V.C), with matrices as large as the
 state:
 
-- prediction (chapter 01): ``F = blkdiag(A, I)``, ``F_u = [W; 0]``,
-  ``P <- F P F^T + F_u Q F_u^T``, an O(n^3) product;
+- prediction (chapter 01): ``F = blkdiag(A, I)``, ``F_w = [W; 0]``,
+  ``P <- F P F^T + F_w Q F_w^T``, an O(n^3) product;
 - gating (chapter 05): each reading's full ``H_i`` (2 x n),
   ``S_i = H_i P H_i^T + R_i``;
 - the joint update (chapters 03, 05): the stacked ``H`` (2m x n),
@@ -23,6 +23,22 @@ state:
 They are meant to be read next to the derivations and used as the reference
 in the tests (the structured filters must agree to 1e-9) and in
 ``bench/bench_ekf.py``, where their cost is shown to grow as n^3.
+
+Why this module is not :mod:`slamlib.ekf_textbook`
+--------------------------------------------------
+Both are "the textbook EKF", on purpose in two different forms. The
+functions of :mod:`slamlib.ekf_textbook` work on the *blocks* of the state
+(``P_rr``, ``P_rm``; the Joseph form in the update) and carry their own
+gating loop: they are what a chapter prints. This module keeps the
+*semantics* of :mod:`slamlib.ekf` (it inherits ``update``) and replaces the
+algebra by *full* matrices as large as the state (``F``, ``F_w``, ``G_x``,
+``G_z``; ``(I - K H) P`` instead of the Joseph form), which is the form whose
+cost the benchmark shows. The fast filters are tested against both, so a
+mistake shared by one of them and :mod:`slamlib.ekf` would still be caught by
+the other. What the two would otherwise write twice, the stacked Jacobian
+``H`` and the block-diagonal ``R``, is taken from :mod:`slamlib.ekf_textbook`
+(:func:`~slamlib.ekf_textbook.stacked_jacobian`,
+:func:`~slamlib.ekf_textbook.block_diagonal`) and not copied.
 """
 
 from __future__ import annotations
@@ -30,6 +46,7 @@ from __future__ import annotations
 import numpy as np
 
 from .ekf import EKFSLAM, EKFLocalization
+from .ekf_textbook import block_diagonal, stacked_jacobian
 
 __all__ = ["DenseEKFLocalization", "DenseEKFSLAM"]
 
@@ -45,22 +62,16 @@ class _DenseAlgebra:
 
     def _full_H(self, slots, Hp, Hl) -> np.ndarray:
         """The stacked observation Jacobian H, shape (2m, n), zeros outside the blocks."""
-        n, m = self._n, len(slots)
-        H = np.zeros((2 * m, n))
-        for j in range(m):
-            H[2 * j:2 * j + 2, :3] = Hp[j]
-            if slots[j] >= 0:
-                H[2 * j:2 * j + 2, slots[j]:slots[j] + 2] = Hl[j]
-        return H
+        return stacked_jacobian(self._n, slots, Hp, Hl)
 
     def _predict_cov(self, A, W) -> None:
         n = self._n
         F = np.eye(n)
         F[:3, :3] = A
-        Fu = np.zeros((n, 2))
-        Fu[:3, :] = W
+        Fw = np.zeros((n, 2))
+        Fw[:3, :] = W
         P = self._P[:n, :n]
-        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fu @ self.Q @ Fu.T)
+        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fw @ self.Q @ Fw.T)
 
     def _innovation_covs(self, slots, Hp, Hl, R) -> np.ndarray:
         n = self._n
@@ -72,12 +83,10 @@ class _DenseAlgebra:
         return 0.5 * (S + S.transpose(0, 2, 1))
 
     def _fuse(self, slots, Hp, Hl, y, R) -> float:
-        n, m = self._n, len(slots)
+        n = self._n
         P = self._P[:n, :n].copy()
         H = self._full_H(slots, Hp, Hl)
-        Rb = np.zeros((2 * m, 2 * m))
-        for j in range(m):
-            Rb[2 * j:2 * j + 2, 2 * j:2 * j + 2] = R[j]
+        Rb = block_diagonal(R)
         yv = y.reshape(-1)
         S = H @ P @ H.T + Rb
         K = P @ H.T @ np.linalg.inv(S)

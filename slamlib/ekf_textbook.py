@@ -41,8 +41,8 @@ __all__ = ["predict_covariance", "predict", "innovation", "stacked_jacobian", "b
 def predict_covariance(P: np.ndarray, A: np.ndarray, W: np.ndarray, Q: np.ndarray) -> np.ndarray:
     """The covariance prediction on the blocks of the SLAM state (chapters 01, 05).
 
-    The dense form is ``P <- F P F^T + F_u Q F_u^T`` with ``F = blkdiag(A, I)``
-    and ``F_u = [W; 0]``; multiplied out block by block it touches only the
+    The dense form is ``P <- F P F^T + F_w Q F_w^T`` with ``F = blkdiag(A, I)``
+    and ``F_w = [W; 0]``; multiplied out block by block it touches only the
     robot's rows and columns (the landmarks do not move).
 
     Parameters

@@ -243,8 +243,11 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
                      ) -> tuple[np.ndarray, np.ndarray]:
     """Jacobians of :func:`motion_model` (chapter 01).
 
-    ``A = df/dx_{k-1}`` (3x3) and ``W = df/dw`` (3x2), the columns of W in the
-    order of ``u = [V_R, V_L]``::
+    ``A = df/dx_{k-1}`` (3x3) and ``W = df/dw`` (3x2), where ``w = [w_R, w_L]``
+    is the noise on the measured wheel speeds ``u = [V_R, V_L]`` (covariance Q),
+    so that the prediction adds ``W Q W^T``; the columns of W are in the order
+    of u. (Because w adds to u, W has the same entries as ``df/du``; the course
+    calls it the Jacobian with respect to the noise, as the report does.)::
 
         A = [[1, 0, -V sin(theta) dt],      W = [[cos(theta) dt/2, cos(theta) dt/2],
              [0, 1,  V cos(theta) dt],           [sin(theta) dt/2, sin(theta) dt/2],

@@ -61,9 +61,9 @@ def test_block_prediction_equals_the_dense_product_and_the_fast_filter(n_landmar
         A, W = motion_jacobians(x[:3], u, dt)
         F = np.eye(x.size)
         F[:3, :3] = A
-        Fu = np.zeros((x.size, 2))
-        Fu[:3] = W
-        np.testing.assert_allclose(P1, F @ P @ F.T + Fu @ Q @ Fu.T, rtol=0, atol=TOL)
+        Fw = np.zeros((x.size, 2))
+        Fw[:3] = W
+        np.testing.assert_allclose(P1, F @ P @ F.T + Fw @ Q @ Fw.T, rtol=0, atol=TOL)
         np.testing.assert_array_equal(x1[:3], motion_model(x[:3], u, dt))
         np.testing.assert_array_equal(x1[3:], x[3:])
         assert np.array_equal(P1, P1.T)

@@ -36,16 +36,16 @@ def test_odometry_calibration_recovers_known_scales_and_delay(tmp_path):
     assert cal.scale_v == pytest.approx(0.9, abs=0.01)
     assert cal.scale_w == pytest.approx(0.8, abs=0.01)
     assert cal.rms_w[1] < 0.2 * cal.rms_w[0]        # calibration removes most of the residual
-    # per-step noise from window residuals: s^2 = var * W / dt
+    # per-step noise from window residuals: s^2 = var * T_w / dt (T_w the window length)
     assert cal.sigma_v == pytest.approx(cal.rms_v[1] * np.sqrt(1.0 / cal.dt), rel=0.2)
 
 
 def test_the_window_scaling_of_white_noise_is_right():
-    # white noise of per-step sigma s on steps dt, averaged over W seconds, has sd s sqrt(dt/W)
+    # white noise of per-step sigma s on steps dt, averaged over T_w seconds, has sd s sqrt(dt/T_w)
     rng = np.random.default_rng(0)
-    s, dt, W = 0.1, 0.01, 1.0
-    noise = rng.normal(0.0, s, size=(4000, int(W / dt)))
-    assert np.std(noise.mean(axis=1)) == pytest.approx(s * np.sqrt(dt / W), rel=0.05)
+    s, dt, T_w = 0.1, 0.01, 1.0
+    noise = rng.normal(0.0, s, size=(4000, int(T_w / dt)))
+    assert np.std(noise.mean(axis=1)) == pytest.approx(s * np.sqrt(dt / T_w), rel=0.05)
     np.testing.assert_allclose(identify.wheel_speed_covariance(0.1, 0.0, 0.23),
                                0.01 * np.ones((2, 2)))        # v noise moves both wheels
 

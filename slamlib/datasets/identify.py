@@ -11,9 +11,10 @@ with what it should have been:
   delay (the command takes effect later than it is logged); what remains is
   the noise. The filters add noise per prediction step: a speed error of
   variance ``s^2`` held over a step of ``dt_k``, so that the mean over a window
-  of length ``W`` has variance ``s^2 sum_k dt_k^2 / W^2``, which is
-  ``s^2 dt / W`` for equal steps of ``dt``. With ``dt`` the median step,
-  ``s^2 = var(residual) W / dt``. On a real timeline, whose steps are not all
+  of length ``T_w`` has variance ``s^2 sum_k dt_k^2 / T_w^2``, which is
+  ``s^2 dt / T_w`` for equal steps of ``dt``. With ``dt`` the median step,
+  ``s^2 = var(residual) T_w / dt``. (``T_w``, not ``W``: W is the motion
+  model's noise Jacobian everywhere in the course.) On a real timeline, whose steps are not all
   equal (gaps of up to a second between commands), the longer steps make the
   filter's variance larger than that (``mean_step_sq`` tells by how much);
   the residuals are also correlated in time, which makes the true error grow
@@ -184,7 +185,7 @@ def calibrate_odometry(logs, window: float = 1.0, delays=None) -> OdometryCalibr
     _, delay, sv, sw, vt, wt, vc, wc, d2, dt = best
     (vt0, wt0, vc0, wc0, _), _ = pooled(0.0)
     rv, rw = vt - sv * vc, wt - sw * wc
-    gain = np.sqrt(window / dt)                 # s = sd(residual) sqrt(W / dt), equal steps
+    gain = np.sqrt(window / dt)                 # s = sd(residual) sqrt(T_w / dt), equal steps
     return OdometryCalibration(
         scale_v=float(sv), scale_w=float(sw), delay=delay,
         sigma_v=float(np.std(rv) * gain), sigma_w=float(np.std(rw) * gain),
