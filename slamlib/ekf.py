@@ -80,9 +80,10 @@ Cost (what "fast" means here, n = 3 + 2 N state entries)
 
       x <- x + W^T (L^-1 y),    P <- P - W^T W   (= P - K S K^T)
 
-  with ``P`` changed in place by one BLAS call (``dgemm``, alpha = -1,
-  beta = 1) over the active block of its storage, O(n^2 m): one read and one
-  write of each entry, no n x n temporary (``_subtract_symmetric_low_rank``).
+  with ``P`` changed in place by BLAS (``dgemm``, alpha = -1, beta = 1: one
+  call over the active block of its storage, or one per strip of 32 rows when
+  n > 2048), O(n^2 m): one read and one write of each entry, no n x n
+  temporary (``_subtract_symmetric_low_rank``).
   It never builds ``H`` (2m x n) nor an n x n identity, and never multiplies
   two n x n matrices. This is the Joseph form above: for any gain ``K``,
   ``(I - K H) P (I - K H)^T + K R K^T = P - G S^-1 G^T + D S D^T`` with
@@ -874,7 +875,7 @@ class _EKFBase:
             x <- x + W^T (L^-1 y),   P <- P - W^T W,   NIS = |L^-1 y|^2
 
         and ``P - W^T W = P - K S K^T`` is the Joseph form at this gain (see the
-        module docstring). Only W, n x 2m, is made; P changes in place.
+        module docstring). Only W, 2m x n, is made; P changes in place.
         """
         P, n, m = self._P, self._n, slots.size
         lm = list(dict.fromkeys(int(s) for s in slots if s >= 0))  # observed landmarks, once
