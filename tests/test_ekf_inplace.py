@@ -189,3 +189,4 @@ def test_update_at_2000_landmarks_allocates_nothing_the_size_of_p():
     G = P_cols @ Hc.T
     want = before - G[rows] @ np.linalg.solve(S, G.T)
     np.testing.assert_allclose(f._P[rows, 3:n], want[:, 3:], rtol=0, atol=1e-12)
+    assert asymmetry(f._P[:n, :n]) <= 1e-15        # n = 4003: the strips of rows
