@@ -1,21 +1,33 @@
-"""Benchmark: the structured EKF SLAM against the dense textbook one (prints numbers only).
+"""Benchmark: the structured EKF SLAM against the dense textbook one and the memory floor.
 
-For maps of 10, 100, 500 and 1000 landmarks (state size n = 3 + 2N), times
+For maps of 100, 500, 1000, 2000 and 4000 landmarks (state size n = 3 + 2N),
+in one process, it times
 
 - one ``predict``,
 - one ``update`` with m = 2 and m = 10 re-observed landmarks (all accepted),
 
-for :class:`slamlib.ekf.EKFSLAM` (structured: predict O(n), update O(n^2 m))
-and :class:`slamlib.ekf_dense.DenseEKFSLAM` (textbook: full F, H, I - K H,
-O(n^3)), in the same process, next to the floor: one pass over P
-(``np.copyto`` of an n x n array). Each time is the minimum over several
-repeats of a loop long enough to be timed (as ``timeit`` does), after a warm-up.
+for :class:`slamlib.ekf.EKFSLAM` (structured: predict O(n), update one
+in-place BLAS pass over P, O(n^2 m)) and :class:`slamlib.ekf_dense.DenseEKFSLAM`
+(textbook: full F, H, I - K H, O(n^3)), next to the floor: one pass over P
+(``np.copyto`` of an n x n array into another, i.e. one read and one write of
+each entry, as an in-place update must do at least). It also measures, with
+:mod:`tracemalloc`, the peak memory the update and the predict allocate, next
+to P's own size (the structured filter should stay far below it: no n x n
+temporary).
 
-Run: ``python bench/bench_ekf.py [--sizes 10 100 500 1000] [--quick] [--blas-threads 1]``.
-Numbers, never pass/fail: they depend on the machine and its BLAS. On a
-small (2-core) virtual machine, OpenBLAS's threads cost more to wake up than
-they save on these sizes; ``--blas-threads 1`` shows the single-thread times
-(it sets ``OPENBLAS_NUM_THREADS`` and friends before numpy is imported).
+Each time is the minimum over several repeats of a loop long enough to be
+timed (as ``timeit`` does), after a warm-up; a dense call longer than a second
+is timed once. The dense filter is run up to ``--dense-max`` landmarks (2000
+by default: at 4000 one dense predict is two 8003^3 products, about 2e12
+flops and 2.5 GB, a minute or more on a small machine; pass
+``--dense-max 4000`` to run it anyway).
+
+Run: ``python bench/bench_ekf.py [--sizes 100 500 1000 2000 4000] [--quick]
+[--dense-max 2000] [--blas-threads 1]``.
+Numbers, never pass/fail: they depend on the machine, its load and its BLAS.
+On a small (2-core) virtual machine, OpenBLAS's threads can cost more to wake
+up than they save; ``--blas-threads 1`` shows the single-thread times (it sets
+``OPENBLAS_NUM_THREADS`` and friends before numpy is imported).
 """
 
 from __future__ import annotations
@@ -24,7 +36,9 @@ import argparse
 import os
 import platform
 import sys
+import time
 import timeit
+import tracemalloc
 from functools import partial
 
 if "--blas-threads" in sys.argv[:-1]:          # must happen before numpy is imported
@@ -67,9 +81,18 @@ def build_filters(n_landmarks: int, seed: int = 0) -> tuple[EKFSLAM, DenseEKFSLA
     return fast, dense, L
 
 
-def best_time(func, repeat: int = 5, min_total: float = 0.05) -> float:
-    """Seconds per call: min over ``repeat`` runs of a loop of at least ``min_total`` s."""
+def best_time(func, repeat: int = 5, min_total: float = 0.05,
+              once_over: float | None = None) -> float:
+    """Seconds per call: min over ``repeat`` runs of a loop of at least ``min_total`` s.
+
+    The warm-up call is timed too; when it alone takes more than ``once_over`` seconds
+    (the dense filter's large maps), it is the answer.
+    """
+    t0 = time.perf_counter()
     func()                                          # warm-up
+    first = time.perf_counter() - t0
+    if once_over is not None and first > once_over:
+        return first
     timer = timeit.Timer(func)
     number = 1
     while True:
@@ -80,7 +103,18 @@ def best_time(func, repeat: int = 5, min_total: float = 0.05) -> float:
     return min(timer.repeat(repeat=repeat, number=number)) / number
 
 
-def readings(f, L: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
+def peak_bytes(func) -> int:
+    """Peak of the memory that one call of ``func`` allocates (tracemalloc; numpy reports to it)."""
+    tracemalloc.start()
+    try:
+        tracemalloc.reset_peak()
+        func()
+        return tracemalloc.get_traced_memory()[1]
+    finally:
+        tracemalloc.stop()
+
+
+def readings(f, m: int) -> tuple[np.ndarray, np.ndarray]:
     """m readings of mapped landmarks, consistent with the estimate (so all are accepted)."""
     ids = np.arange(m)
     z = np.array([observe(f.pose, f.landmark(int(i))) for i in ids]) + 1e-3
@@ -88,60 +122,106 @@ def readings(f, L: np.ndarray, m: int) -> tuple[np.ndarray, np.ndarray]:
 
 
 def fmt(seconds: float) -> str:
+    if seconds != seconds:                          # NaN: not measured
+        return "-"
     if seconds < 1e-3:
-        return f"{seconds * 1e6:7.0f} us"
+        return f"{seconds * 1e6:.0f} us"
     if seconds < 1.0:
-        return f"{seconds * 1e3:7.2f} ms"
-    return f"{seconds:7.2f} s "
+        return f"{seconds * 1e3:.2f} ms"
+    return f"{seconds:.2f} s"
+
+
+def mb(nbytes: float) -> str:
+    return f"{nbytes / 2**20:.1f} MB" if nbytes >= 2**20 else f"{nbytes / 2**10:.0f} kB"
+
+
+def ratio(a: float, b: float, digits: int = 1) -> str:
+    if a != a or b != b:
+        return "-"
+    return f"{a / b:.{digits}f}x" if a / b >= 0.1 else f"{a / b:.3f}x"
+
+
+def table(cols: list[str], rows: list[list[str]]) -> str:
+    widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
+    lines = [" | ".join(c.rjust(w) for c, w in zip(cols, widths)),
+             "-+-".join("-" * w for w in widths)]
+    lines += [" | ".join(v.rjust(w) for v, w in zip(r, widths)) for r in rows]
+    return "\n".join(lines)
 
 
 def main(argv=None) -> None:
     ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("--sizes", type=int, nargs="+", default=[10, 100, 500, 1000])
+    ap.add_argument("--sizes", type=int, nargs="+", default=[100, 500, 1000, 2000, 4000])
     ap.add_argument("--ms", type=int, nargs="+", default=[2, 10])
+    ap.add_argument("--dense-max", type=int, default=2000,
+                    help="largest map (landmarks) on which the dense filter is run")
     ap.add_argument("--quick", action="store_true", help="fewer repeats")
     ap.add_argument("--blas-threads", type=int, default=None,
                     help="BLAS threads (set before numpy is imported)")
     args = ap.parse_args(argv)
     repeat = 3 if args.quick else 5
+    nan = float("nan")
 
     print(f"numpy {np.__version__}, python {platform.python_version()}, "
           f"{os.cpu_count()} cpus, {platform.machine()}, "
           f"OPENBLAS_NUM_THREADS={os.environ.get('OPENBLAS_NUM_THREADS', 'unset')}")
-    print("times per call (min of repeats); ratio = dense / fast; floor = np.copyto of P\n")
-    cols = ["N", "n", "floor"] + ["predict fast", "dense", "ratio"]
+    print("times per call (min of repeats); floor = np.copyto of P (one read and one write "
+          "of P);\nx floor = fast / floor; dense/fast = how many times faster the structured "
+          "filter is\n")
+    tcols = ["N", "n", "P", "floor", "predict", "x floor", "dense", "dense/fast"]
     for m in args.ms:
-        cols += [f"update m={m} fast", "dense", "ratio", "fast/floor"]
-    rows = []
+        tcols += [f"update m={m}", "x floor", "dense", "dense/fast"]
+    mcols = ["N", "n", "P", "predict peak", "/ P"]
+    for m in args.ms:
+        mcols += [f"update m={m} peak", "/ P", "dense peak", "/ P"]
+    trows, mrows, skipped = [], [], []
     for N in args.sizes:
-        fast, dense, L = build_filters(N)
+        fast, dense, _ = build_filters(N)
+        run_dense = N <= args.dense_max
+        if not run_dense:
+            skipped.append(N)
         n = fast.state_size
         P = fast.P
-        buf = np.empty_like(P)
+        P_bytes = P.nbytes
+        buf = np.ones_like(P)                       # touched: no page faults in the timing
         t_floor = best_time(partial(np.copyto, buf, P), repeat)
+        del P, buf
         u = np.array([0.3, 0.31])
         t_pf = best_time(partial(fast.predict, u, 0.1), repeat)
-        t_pd = best_time(partial(dense.predict, u, 0.1), max(2, repeat - 2), min_total=0.2)
-        row = [str(N), str(n), fmt(t_floor), fmt(t_pf), fmt(t_pd), f"{t_pd / t_pf:7.0f}x"]
+        peak_pf = peak_bytes(partial(fast.predict, u, 0.1))
+        t_pd = (best_time(partial(dense.predict, u, 0.1), max(2, repeat - 2), min_total=0.2,
+                          once_over=1.0) if run_dense else nan)
+        trow = [str(N), str(n), mb(P_bytes), fmt(t_floor), fmt(t_pf), ratio(t_pf, t_floor),
+                fmt(t_pd), ratio(t_pd, t_pf, 0)]
+        mrow = [str(N), str(n), mb(P_bytes), mb(peak_pf), f"{peak_pf / P_bytes:.4f}"]
         for m in args.ms:
             m_eff = min(m, N)
-            ids, z = readings(fast, L, m_eff)
+            ids, z = readings(fast, m_eff)
             rep = fast.update(ids, z)
             assert rep.n_accepted == m_eff, rep.table()
             t_uf = best_time(partial(fast.update, ids, z), repeat)
-            ids, z = readings(dense, L, m_eff)
-            t_ud = best_time(partial(dense.update, ids, z), max(2, repeat - 2),
-                             min_total=0.2)
-            row += [fmt(t_uf), fmt(t_ud), f"{t_ud / t_uf:7.0f}x", f"{t_uf / t_floor:7.1f}x"]
-        rows.append(row)
-        print(f"  measured N = {row[0].strip()}", file=sys.stderr, flush=True)
+            peak_uf = peak_bytes(partial(fast.update, ids, z))
+            t_ud, peak_ud = nan, nan
+            if run_dense:
+                ids, z = readings(dense, m_eff)
+                t_ud = best_time(partial(dense.update, ids, z), max(2, repeat - 2),
+                                 min_total=0.2, once_over=1.0)
+                peak_ud = peak_bytes(partial(dense.update, ids, z))
+            trow += [fmt(t_uf), ratio(t_uf, t_floor), fmt(t_ud), ratio(t_ud, t_uf, 0)]
+            mrow += [mb(peak_uf), f"{peak_uf / P_bytes:.4f}",
+                     "-" if not run_dense else mb(peak_ud),
+                     "-" if not run_dense else f"{peak_ud / P_bytes:.1f}"]
+        trows.append(trow)
+        mrows.append(mrow)
+        print(f"  measured N = {N}", file=sys.stderr, flush=True)
+        del fast, dense
 
-    widths = [max(len(c), *(len(r[i]) for r in rows)) for i, c in enumerate(cols)]
-    print()
-    print(" | ".join(c.rjust(w) for c, w in zip(cols, widths)))
-    print("-+-".join("-" * w for w in widths))
-    for r in rows:
-        print(" | ".join(v.rjust(w) for v, w in zip(r, widths)))
+    print(table(tcols, trows))
+    print("\npeak memory allocated by one call (tracemalloc), next to P's size\n")
+    print(table(mcols, mrows))
+    if skipped:
+        print(f"\ndense filter not run at N = {', '.join(map(str, skipped))} (--dense-max "
+              f"{args.dense_max}): its n^3 products take minutes and several times P's memory")
 
 
 if __name__ == "__main__":

@@ -73,16 +73,27 @@ Cost (what "fast" means here, n = 3 + 2 N state entries)
 
       P_rr <- A P_rr A^T + W Q W^T,   P_rm <- A P_rm,   P_mr = P_rm^T
 
-- ``update`` with m accepted readings forms ``P H^T`` from the columns of the
-  robot and of the observed landmarks only (n x 2m), ``S`` (2m x 2m) and ``K``,
-  and changes ``P`` with one symmetric low-rank correction, O(n^2 m). It never
-  builds ``H`` (2m x n) nor an n x n identity, and never multiplies two
-  n x n matrices. The Joseph form above expands, with ``G = P H^T``, into::
+- ``update`` with m accepted readings forms ``H P`` from the rows of the
+  robot and of the observed landmarks only (2m x n), ``S`` (2m x 2m), its
+  Cholesky factor ``S = L L^T`` and the whitened gain ``W = L^-1 H P``
+  (2m x n); then ``K = W^T L^-1`` and::
 
-      P <- P - E K^T - K E^T,    E = G - K S / 2
+      x <- x + W^T (L^-1 y),    P <- P - W^T W   (= P - K S K^T)
 
-  a symmetric rank-4m correction, applied strip by strip so that ``P`` stays
-  bitwise symmetric (``_subtract_symmetric_low_rank``).
+  with ``P`` changed in place by BLAS (``dgemm``, alpha = -1, beta = 1: one
+  call over the active block of its storage, or one per strip of 32 rows when
+  n > 2048), O(n^2 m): one read and one write of each entry, no n x n
+  temporary (``_subtract_symmetric_low_rank``).
+  It never builds ``H`` (2m x n) nor an n x n identity, and never multiplies
+  two n x n matrices. This is the Joseph form above: for any gain ``K``,
+  ``(I - K H) P (I - K H)^T + K R K^T = P - G S^-1 G^T + D S D^T`` with
+  ``G = P H^T`` and ``D = K - G S^-1``, so at the gain the filter applies
+  (``K = G S^-1`` up to rounding) the two differ by a term of second order in
+  the rounding error of K, as the Joseph form's own insensitivity to K
+  promises; K itself is never formed. ``P`` stays symmetric to rounding, not
+  bitwise: entries (i, j) and (j, i) are sums of the same products, which the
+  BLAS may add in different orders (``tests/test_ekf_inplace.py`` checks
+  ``max |P - P^T| <= 1e-15 max |P|`` over 400 updates at n = 603).
 - a new landmark costs O(n): the state lives in preallocated arrays whose
   capacity doubles when it runs out, so adding N landmarks one by one costs
   O(N) reallocations of amortised O(n^2) in total, not one per landmark.
@@ -804,8 +815,8 @@ class _EKFBase:
             x <- x + W^T (L^-1 y),   P <- P - W^T W,   NIS = |L^-1 y|^2
 
         and ``P - W^T W = P - K S K^T`` is the Joseph form at this gain (see the
-        module docstring). Only W, n x 2m, is made; P changes in place (a small P through
-        one n x n product, see :func:`_subtract_symmetric_low_rank`).
+        module docstring). Only W, 2m x n, is made; P changes in place (below
+        ``_IN_PLACE_FROM`` through one n x n product, see :func:`_subtract_symmetric_low_rank`).
         """
         P, n, m = self._P, self._n, slots.size
         sl = slots.tolist()
@@ -849,11 +860,11 @@ def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
 
 
 def _solve_lower(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``L^-1 b`` for the small (2m x 2m) lower-triangular Cholesky factor L of S.
+    """``L^-1 b`` for the small (2m x 2m) lower-triangular L, with numpy's LAPACK.
 
-    ``numpy.linalg.solve``: L is tiny, so not exploiting its triangle costs
-    nothing, while SciPy's ``solve_triangular`` was measured at about 1 ms per
-    call here (its threaded LAPACK wakes its threads for a 2 x 2 system).
+    (Not ``scipy.linalg.solve_triangular``: scipy's OpenBLAS is a second copy with its own
+    threads, which its dtrtrs wakes at any size; on a 2-core machine they then compete
+    with numpy's and an update of 10 landmarks took 1-2 ms instead of 0.2 ms.)
     """
     return np.linalg.solve(L, b)
 
@@ -871,32 +882,47 @@ def _dgemm():
 
     from scipy.linalg import cython_blas
 
-    api = ctypes.pythonapi
-    api.PyCapsule_GetName.restype = ctypes.c_char_p
-    api.PyCapsule_GetName.argtypes = [ctypes.py_object]
-    api.PyCapsule_GetPointer.restype = ctypes.c_void_p
-    api.PyCapsule_GetPointer.argtypes = [ctypes.py_object, ctypes.c_char_p]
+    # private prototypes (not by setting argtypes on the shared ctypes.pythonapi)
+    name = ctypes.PYFUNCTYPE(ctypes.c_char_p, ctypes.py_object)(
+        ("PyCapsule_GetName", ctypes.pythonapi))
+    pointer = ctypes.PYFUNCTYPE(ctypes.c_void_p, ctypes.py_object, ctypes.c_char_p)(
+        ("PyCapsule_GetPointer", ctypes.pythonapi))
     capsule = cython_blas.__pyx_capi__["dgemm"]
-    address = api.PyCapsule_GetPointer(capsule, api.PyCapsule_GetName(capsule))
+    address = pointer(capsule, name(capsule))
     return ctypes.CFUNCTYPE(None, *[ctypes.c_void_p] * 13)(address)
 
 
-#: From this state size on, :func:`_subtract_symmetric_low_rank` works in place with one dgemm
-#: (below it, the ctypes call costs more than the n x n temporary it saves: bench_ekf.py).
-_IN_PLACE_FROM = 500
+#: Up to this state size, :func:`_subtract_symmetric_low_rank` subtracts one n x n product (at
+#: most 320 kB; the ctypes call of the in-place path costs more than that temporary there).
+_IN_PLACE_FROM = 200
+#: Up to this n, :func:`_subtract_symmetric_low_rank` makes one BLAS call over the whole block.
+_ONE_CALL_MAX = 2048
+#: Above it, one call per strip of this many rows of P (see the function's docstring).
+_STRIP_ROWS = 32
 
 
 def _subtract_symmetric_low_rank(P: np.ndarray, n: int, W: np.ndarray) -> None:
-    """``P[:n, :n] -= W^T W`` in place, with one BLAS call over P, O(n^2 k).
+    """``P[:n, :n] -= W^T W`` in place with BLAS (``dgemm``), O(n^2 k), no n x n temporary.
 
     ``P`` is the filter's C-ordered storage (rows contiguous, row stride ``ld >= n``),
     ``W`` is k x n. Read as a Fortran (column-major) matrix with leading
     dimension ``ld``, the block ``P[:n, :n]`` is ``P^T = P``, and ``W`` (C-ordered)
-    is the n x k matrix ``W^T``; one ``dgemm`` with ``alpha = -1``, ``beta = 1``
-    then computes ``P <- P - W^T W`` where P lies: no n x n temporary, one read
-    and one write of each entry. Entries ``(i, j)`` and ``(j, i)`` are sums of the
-    same k products ``W_li W_lj``, which the BLAS may add in different orders, so
-    P stays symmetric to rounding (bitwise in small cases), not always bitwise.
+    is the n x k matrix ``W^T``; ``dgemm`` with ``alpha = -1``, ``beta = 1`` then
+    computes ``P <- P - W^T W`` where P lies, reading and writing each entry once.
+
+    Up to ``n = _IN_PLACE_FROM`` (the course's worlds) it is ``P -= W.T @ W``
+    instead: numpy's BLAS forms ``W^T W`` with ``syrk`` (exactly symmetric) in
+    a temporary of at most 320 kB, cheaper than the ctypes call below.
+    Up to ``n = _ONE_CALL_MAX`` this is one call over the whole block. Above,
+    it is one call per strip of ``_STRIP_ROWS`` rows of P (the same products,
+    the strips one after the other): OpenBLAS sweeps all n columns for every
+    block of 512 rows, and at n = 8003 that pattern ran at half the speed of a
+    plain copy of P, while 32-row strips stream through memory at the speed of
+    a copy (``bench/bench_ekf.py``).
+
+    Entries ``(i, j)`` and ``(j, i)`` are sums of the same k products
+    ``W_li W_lj``, which the BLAS may add in different orders, so P stays
+    symmetric to rounding (bitwise in small cases), not always bitwise.
     """
     k = W.shape[0]
     if W.shape != (k, n):
@@ -910,19 +936,25 @@ def _subtract_symmetric_low_rank(P: np.ndarray, n: int, W: np.ndarray) -> None:
         return
     if n <= _IN_PLACE_FROM:
         # small P: one product (W^T W is done by BLAS's syrk, exactly symmetric) costs less
-        # than the call below; its n x n temporary is at most 2 MB
+        # than the call below
         P[:n, :n] -= W.T @ W
         return
     import ctypes
 
     W = np.ascontiguousarray(W, dtype=np.float64)
-    dims = (ctypes.c_int * 4)(n, k, P.strides[0] // 8, 0)      # n, k, ldc
-    coef = (ctypes.c_double * 2)(-1.0, 1.0)                     # alpha, beta
-    nn, kk, ldc = (ctypes.addressof(dims) + 4 * i for i in range(3))
+    ld = P.strides[0] // 8
+    step = n if n <= _ONE_CALL_MAX else _STRIP_ROWS
+    dims = (ctypes.c_int * 4)(n, k, ld, step)           # n, k, ldc, rows of a strip
+    last = (ctypes.c_int * 1)(n - (n - 1) // step * step)   # rows of the last strip
+    coef = (ctypes.c_double * 2)(-1.0, 1.0)             # alpha, beta
+    nn, kk, ldc, rows = (ctypes.addressof(dims) + 4 * i for i in range(4))
     alpha, beta = ctypes.addressof(coef), ctypes.addressof(coef) + 8
-    # C (n x n, ld ldc) <- alpha * A B^T + beta * C with A = B = W^T (n x k, ld n)
-    _dgemm()(b"N", b"T", nn, nn, kk, alpha, W.ctypes.data, nn, W.ctypes.data, nn,
-             beta, P.ctypes.data, ldc)
+    dgemm, w, p = _dgemm(), W.ctypes.data, P.ctypes.data
+    for i0 in range(0, n, step):
+        b = rows if i0 + step <= n else ctypes.addressof(last)
+        # rows i0.. of P = Fortran columns i0.. of C (n x b) <- -A B^T + C, with
+        # A = W^T (n x k) and B = rows i0.. of W^T (b x k), both of leading dimension n
+        dgemm(b"N", b"T", nn, b, kk, alpha, w, nn, w + 8 * i0, nn, beta, p + 8 * i0 * ld, ldc)
 
 
 def _block_diag(R: np.ndarray) -> np.ndarray:

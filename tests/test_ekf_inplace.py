@@ -34,11 +34,12 @@ def asymmetry(P: np.ndarray) -> float:
 
 # --------------------------------------------------------------------------- the BLAS call
 @pytest.mark.parametrize("n, k, spare", [(1, 2, 0), (5, 4, 7), (127, 2, 1), (129, 20, 0),
-                                         (300, 6, 33), (1001, 4, 0), (1003, 20, 5)])
+                                         (300, 6, 33), (1001, 4, 0), (1003, 20, 5),
+                                         (2080, 4, 0), (2100, 6, 9)])   # in strips of rows
 def test_correction_equals_the_formula_in_place_on_the_storage_block(n, k, spare):
     rng = np.random.default_rng(n + k)
-    A = rng.normal(size=(n, n))
-    P = A @ A.T / n + np.eye(n)
+    A = rng.normal(size=(n, 40))
+    P = A @ A.T / 40 + np.eye(n)
     W = rng.normal(size=(k, n)) * 0.1
     want = P - W.T @ W
     big = np.full((n + spare, n + spare), 7.0)   # the active block of a larger storage
@@ -188,3 +189,4 @@ def test_update_at_2000_landmarks_allocates_nothing_the_size_of_p():
     G = P_cols @ Hc.T
     want = before - G[rows] @ np.linalg.solve(S, G.T)
     np.testing.assert_allclose(f._P[rows, 3:n], want[:, 3:], rtol=0, atol=1e-12)
+    assert asymmetry(f._P[:n, :n]) <= 1e-15        # n = 4003: the strips of rows
