@@ -114,7 +114,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 
 import numpy as np
 
@@ -502,6 +502,25 @@ class _EKFBase:
         readings of a :class:`~slamlib.runs.Run` (checked when the run was made)
         and the covariances of the run's own sensor model.
         """
+        report, fuse = self._gate_ids(ids, z, Rk)
+        # -------- everything is checked: from here on the state changes
+        joint_nis = float("nan")
+        if fuse is not None:
+            slots_a, Hp, Hl, y, Rg, acc = fuse
+            if acc.all():
+                joint_nis = self._fuse(slots_a, Hp, Hl, y, Rg)
+            else:
+                joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
+            self._x[2] = _wrap_scalar(float(self._x[2]))
+        for i in np.flatnonzero(report.new).tolist():
+            self._add_landmark(int(ids[i]), z[i], Rk[i])
+        return replace(report, joint_nis=joint_nis)
+
+    def _gate_ids(self, ids: np.ndarray, z: np.ndarray, Rk: np.ndarray):
+        """Steps 1 and 2 of :meth:`update` (association by id, each reading gated at the prior):
+        the report the update will return (``joint_nis`` not yet known) and what the joint
+        update then fuses, ``(slots, H_pose, H_landmark, y, R, accepted)`` or None.
+        Nothing changes."""
         k = ids.shape[0]
         status = [""] * k
         gated, positions, slots = [], [], []
@@ -526,7 +545,7 @@ class _EKFBase:
         pred = np.full((k, 2), np.nan)
         S_all = np.full((k, 2, 2), np.nan)
         accepted = np.zeros(k, dtype=bool)
-        joint_nis = float("nan")
+        fuse = None
 
         if gated:
             g = np.array(gated)
@@ -549,22 +568,38 @@ class _EKFBase:
             flags = acc.tolist()
             for i, a in zip(g.tolist(), flags):
                 status[i] = "accepted" if a else "rejected"
-            # -------- everything is checked: from here on the state changes
-            if all(flags):
-                joint_nis = self._fuse(slots_a, Hp, Hl, y, Rg)
-            elif any(flags):
-                joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
             if any(flags):
-                self._x[2] = _wrap_scalar(float(self._x[2]))
+                fuse = (slots_a, Hp, Hl, y, Rg, acc)
 
         new = np.zeros(k, dtype=bool)
-        for mid, i in first_new.items():
-            self._add_landmark(mid, z[i], Rk[i])
-            new[i] = True
+        new[list(first_new.values())] = True
+        report = UpdateReport(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new,
+                              d2=d2, innovation=innov, predicted=pred, S=S_all,
+                              threshold=self.threshold, gate=self.gate,
+                              joint_nis=float("nan"))
+        return report, fuse
 
-        return UpdateReport(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new,
-                            d2=d2, innovation=innov, predicted=pred, S=S_all,
-                            threshold=self.threshold, gate=self.gate, joint_nis=joint_nis)
+    def preview(self, ids, z, R=None) -> UpdateReport:
+        """What :meth:`update` ``(ids, z, R)`` would report, without changing the filter.
+
+        The same association and gate as :meth:`update` (the same code: every
+        reading's ``h``, ``y``, ``S_i``, ``d2_i`` and verdict at the prior), so a
+        chapter can look at a frame's numbers and keep the prior, instead of
+        updating a deep copy. ``new`` marks the readings the update would add;
+        ``joint_nis`` is NaN (nothing is fused). Filters that pair readings
+        without ids, or whose :meth:`update` does more than this class's (e.g.
+        :class:`~slamlib.confirmation.ConfirmedSLAM`), raise a ValueError.
+        """
+        if self.association != "ids" or ids is None:
+            raise ValueError(f"preview: needs readings with ids and association='ids' (this "
+                             f"filter has association={self.association!r})")
+        if type(self).update is not _EKFBase.update:
+            raise ValueError(f"preview: {type(self).__name__} has its own update (it does more "
+                             f"than gate and fuse): apply it to a copy instead")
+        ids = as_marker_ids(ids)
+        k = ids.shape[0]
+        z = as_readings(z, k)
+        return self._gate_ids(ids, z, as_reading_covariances(R, self.R, k))[0]
 
     def _update_without_ids(self, ids, z, R) -> UpdateReport:
         """The association step without ids (chapter 09): pair, fuse jointly, then add new ones.

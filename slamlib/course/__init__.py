@@ -26,6 +26,5 @@ Studies and chapter helpers:
 - ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
 - ``student_filter``     the student's own EKF SLAM (their exercise answers) over a recorded run
 - ``trace_readings``     a trace's readings end to end in flat arrays, by status, and their counts
-- ``update_preview``     an update's innovations, S, d2 and verdicts without applying it
 - ``tables``             aligned tables of results (headers, rows, one format per column)
 """
