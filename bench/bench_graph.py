@@ -27,7 +27,7 @@ import numpy as np
 
 from slamlib import graph
 from slamlib.ekf import EKFSLAM
-from slamlib.experiments import DEFAULT_P0, default_R, reading_covariances
+from slamlib.runner import DEFAULT_P0, default_R, reading_covariances
 from slamlib.studies import random_loop_run
 
 

@@ -27,8 +27,8 @@ from pathlib import Path
 import numpy as np
 
 from slamlib import sim, studies
-from slamlib.experiments import DEFAULT_P0
 from slamlib.metrics import chi2_band
+from slamlib.runner import DEFAULT_P0
 
 ROOT = Path(__file__).resolve().parents[1]
 

@@ -16,7 +16,7 @@ One module per idea:
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
 - ``ekf_textbook`` the EKF's equations one per line (predict, joint update, augment, NEES)
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
-- ``experiments``  a filter driven over a run, with its trace
+- ``runner``       runs a filter over a recorded run: its trace, and the one way to build it
 - ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)
 - ``association``  readings without ids: individual compatibility, nearest neighbour, JCBB (ch. 09)
 - ``studies``      Monte-Carlo NEES, marker-density and re-observation studies (chapter 06)

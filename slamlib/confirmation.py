@@ -37,7 +37,7 @@ import numbers
 
 import numpy as np
 
-from . import experiments as ex
+from . import runner as ex
 from .ekf import EKFSLAM, UpdateReport, gate_threshold
 from .metrics import mahalanobis2
 from .models import KOBUKI_WHEEL_BASE, inverse_observation_jacobians, inverse_observe
@@ -221,7 +221,7 @@ class ConfirmedSLAM(EKFSLAM):
 def confirmed_slam(run: Run, *, gate: float | None = 0.95, n_confirm: int = 2,
                    max_gap: int = 2, confirm: float = 0.95, Q=None, P0=ex.DEFAULT_P0,
                    by: str = "capture", until: float | None = None) -> ex.Trace:
-    """:func:`slamlib.experiments.slam` with :class:`ConfirmedSLAM` (chapter 05)."""
+    """:func:`slamlib.runner.slam` with :class:`ConfirmedSLAM` (chapter 05)."""
     filt = ex.make_filter(ConfirmedSLAM, run, Q=Q, P0=P0, gate=gate, n_confirm=n_confirm,
                           max_gap=max_gap, confirm=confirm)
     return ex.run_filter(run, filt, by=by, until=until)

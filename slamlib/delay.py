@@ -44,7 +44,7 @@ that reaches its time.
 :func:`run_delayed` drives a wrapped filter through a run and records two
 traces: the estimate *as known at each moment* (real time, what a controller
 would use) and the *settled* one (each state once no late frame can change
-it any more), which equals :func:`slamlib.experiments.run_filter` with
+it any more), which equals :func:`slamlib.runner.run_filter` with
 ``by="capture"``.
 """
 
@@ -58,8 +58,8 @@ from dataclasses import dataclass
 import numpy as np
 
 from .ekf import UpdateReport
-from .experiments import Trace, TraceRecorder, reading_covariances
 from .models import inverse_observe, motion_model, observe
+from .runner import Trace, TraceRecorder, reading_covariances
 from .runs import Run
 from .validate import as_finite_scalar, as_positive
 
@@ -395,7 +395,7 @@ def run_delayed(run: Run, filt, *, max_delay: float = 1.0, by: str = "arrival",
 
     Frames are delivered at their arrival time (``by="arrival"``, the real
     robot) or capture time and stamped with their capture time; each reading
-    gets ``sensor.R(range)`` as in :func:`slamlib.experiments.run_filter`.
+    gets ``sensor.R(range)`` as in :func:`slamlib.runner.run_filter`.
     """
     sensor = run.sensor() if use_sensor_R else None
     t0 = float(run.enc_t[0])
@@ -499,10 +499,10 @@ def delayed_run(latency: float, *, scenario: str = "arena_loop", seed: int | Non
 
 def make_filter(run: Run, kind: str = "slam", gate: float | None = 0.95):
     """The filter the course runs on ``run``: EKF SLAM or the map-based EKF on the true map
-    (:func:`slamlib.experiments.make_filter`: the first true pose, the run's Q, its
+    (:func:`slamlib.runner.make_filter`: the first true pose, the run's Q, its
     sensor's R at 2 m)."""
     from .ekf import EKFSLAM, EKFLocalization
-    from .experiments import make_filter as make
+    from .runner import make_filter as make
 
     if kind == "slam":
         return make(EKFSLAM, run, gate=gate)
@@ -515,7 +515,7 @@ def run_method(run: Run, method: str, kind: str = "slam", *, max_delay: float = 
     """Run one of :data:`METHODS` on ``run`` and return its real-time trace."""
     filt = make_filter(run, kind)
     if method == "naive":
-        from .experiments import run_filter
+        from .runner import run_filter
 
         return run_filter(run, filt, by="arrival")
     if method == "fixed":

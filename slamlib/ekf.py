@@ -498,7 +498,7 @@ class _EKFBase:
     def _update_ids(self, ids: np.ndarray, z: np.ndarray, Rk: np.ndarray) -> UpdateReport:
         """:meth:`update` with ids on checked arrays: ids int (k,), z (k, 2), Rk (k, 2, 2).
 
-        The runners of :mod:`slamlib.experiments` call it directly with the
+        The runners of :mod:`slamlib.runner` call it directly with the
         readings of a :class:`~slamlib.runs.Run` (checked when the run was made)
         and the covariances of the run's own sensor model.
         """
@@ -1233,7 +1233,7 @@ class IdealEKFSLAM(EKFSLAM):
     x0, P0, Q, R, wheel_base, gate, capacity
         As for :class:`EKFSLAM`.
     truth : callable ``t -> (3,)``
-        The true pose at time ``t`` (s), e.g. :func:`slamlib.experiments.truth_function`.
+        The true pose at time ``t`` (s), e.g. :func:`slamlib.runner.truth_function`.
     landmarks : dict {int: (2,)}
         The true map. A reading of an id that is not in it (a misread) is
         linearised at the estimate, as in EKF SLAM.

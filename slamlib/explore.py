@@ -12,9 +12,9 @@ believes. One encoder period of the closed loop (:func:`run_closed_loop`):
 3. the filter fuses the camera frames captured during the period, then
    predicts with the wheel speeds it computes from the ticks.
 
-The order of step 3 is the order of :func:`slamlib.experiments.run_filter`
+The order of step 3 is the order of :func:`slamlib.runner.run_filter`
 (by capture time), so replaying the recorded run through
-:func:`slamlib.experiments.slam` gives the same estimates.
+:func:`slamlib.runner.slam` gives the same estimates.
 
 The exploration policy (:class:`Explorer`) is deliberately simple:
 
@@ -54,8 +54,8 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .ekf import EKFSLAM
-from .experiments import DEFAULT_P0, Trace, TraceRecorder, reading_covariances
 from .models import tick_difference, wheel_speeds_from_ticks, wrap_angle
+from .runner import DEFAULT_P0, Trace, TraceRecorder, reading_covariances
 from .runs import Run
 from .sensors import DEFAULT_FOV_HALF_ANGLE, AnalyticMarkerSensor
 from .sim import KobukiParams, KobukiSim, WaypointController
@@ -382,7 +382,7 @@ class Exploration:
         as by :func:`slamlib.sim.simulate`.
     trace : Trace
         The filter's pose and covariance after every event, with the truth
-        (as :func:`slamlib.experiments.run_filter` records it).
+        (as :func:`slamlib.runner.run_filter` records it).
     policy : object
         The policy in its final state (for :class:`Explorer`: ``grid``,
         ``history``, ``returns``, ``goals``).
@@ -418,7 +418,7 @@ class Exploration:
             out["coverage"] = grid.coverage
             out["returns"] = float(len(self.policy.returns))
         if world is not None:
-            from .experiments import map_error
+            from .runner import map_error
             out["map_rmse"] = map_error(self.filter, world)[0]
         return out
 

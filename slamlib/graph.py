@@ -7,7 +7,7 @@ as a factor between them; the least-squares problem they make is solved by
 re-linearising as often as needed (Dellaert & Kaess 2017).
 
 The graph of a run (:func:`build_problem`), with the same inputs as
-:func:`slamlib.experiments.slam`:
+:func:`slamlib.runner.slam`:
 
 - a **prior** on the first pose: the run's start pose with covariance ``P0``;
 - one **odometry factor** (``BetweenFactorPose2``) between the poses of
@@ -49,9 +49,9 @@ from dataclasses import dataclass, field
 import gtsam
 import numpy as np
 
-from .experiments import DEFAULT_P0, Trace, default_R, map_error, reading_covariances
 from .metrics import ate
 from .models import compose_poses, inverse_observe, motion_jacobians, motion_model, wrap_angle
+from .runner import DEFAULT_P0, Trace, default_R, map_error, reading_covariances
 from .runs import Run
 from .validate import as_covariance, as_matrix, as_vector
 
@@ -265,11 +265,11 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
     """The factor graph's contents for ``run``, from the same events the EKF sees.
 
     The run's events (:meth:`slamlib.runs.Run.events`) are read in the order
-    :func:`slamlib.experiments.run_filter` reads them: the encoder steps since the
+    :func:`slamlib.runner.run_filter` reads them: the encoder steps since the
     last node are integrated into one :class:`Odometry`; a camera frame with
     readings makes a new node (or joins the last one if the robot has not moved
     since). ``Q``, ``R``, ``P0``, ``by``, ``use_sensor_R`` mean what they mean for
-    :func:`slamlib.experiments.slam`. ``max_steps``: also make a node after this
+    :func:`slamlib.runner.slam`. ``max_steps``: also make a node after this
     many encoder steps without a frame (long blind stretches, or a run without readings).
 
     ``odometry_floor`` (m^2 and rad^2) is added to each odometry covariance's
@@ -410,7 +410,7 @@ def _initial_values(problem: Problem) -> gtsam.Values:
 @dataclass
 class GraphMap:
     """The smoother's map in the shape of ``EKFSLAM``'s (``landmarks``, ``landmark_cov``),
-    so that what reads a filter's map (plots, :func:`slamlib.experiments.map_error`) reads it.
+    so that what reads a filter's map (plots, :func:`slamlib.runner.map_error`) reads it.
     """
 
     landmark_ids: list
@@ -433,7 +433,7 @@ class GraphMap:
 
 @dataclass
 class GraphTrace(Trace):
-    """A :class:`slamlib.experiments.Trace` of the smoothed poses, with the map.
+    """A :class:`slamlib.runner.Trace` of the smoothed poses, with the map.
 
     ``x``, ``P`` are the final estimate of every pose node and its marginal
     covariance given ALL the readings (smoothed), z-down, next to the truth;
@@ -567,7 +567,7 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
         after the last one, ``final_iterations`` more updates without new
         factors let the re-linearisation settle.
     Q, R, P0, by, use_sensor_R, max_time
-        As for :func:`slamlib.experiments.slam`.
+        As for :func:`slamlib.runner.slam`.
     max_steps, odometry_floor, min_interval
         See :func:`build_problem`.
     robust : {"huber", "cauchy"}, optional

@@ -29,7 +29,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import experiments as ex
+from . import runner as ex
 from .metrics import chi2_band, pose_error
 from .metrics import nees as _nees
 from .runs import Run
@@ -109,7 +109,7 @@ def sample_trace(trace: ex.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
     return np.asarray(_nees(e, P)), e[:, 2] ** 2 / P[:, 2, 2]
 
 
-#: Filter names of :func:`monte_carlo` -> the runner of :mod:`slamlib.experiments`.
+#: Filter names of :func:`monte_carlo` -> the runner of :mod:`slamlib.runner`.
 _RUNNERS = {"localization": "localization", "slam": "slam", "fej": "fej_slam",
             "ideal": "ideal_slam"}
 

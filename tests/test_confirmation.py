@@ -11,7 +11,7 @@ import copy
 import numpy as np
 import pytest
 
-from slamlib import experiments
+from slamlib import runner
 from slamlib.confirmation import ConfirmedSLAM, confirmed_slam
 from slamlib.ekf import EKFSLAM
 from slamlib.models import motion_model
@@ -171,5 +171,5 @@ def test_on_the_misread_run_no_misread_id_is_mapped(misread_run):
         assert np.hypot(*(p - world.landmarks()[mid])) < 0.3, mid
     cam = misread_run.camera
     assert np.count_nonzero(cam.id != cam.true_id) > 20      # the run does contain misreads
-    plain = set(experiments.slam(misread_run, gate=0.95).filter.landmark_ids)
+    plain = set(runner.slam(misread_run, gate=0.95).filter.landmark_ids)
     assert len(plain - set(world.landmarks())) > 10

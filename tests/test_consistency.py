@@ -16,7 +16,7 @@ Everything is seeded; the whole file takes about half a minute on 2 cores.
 import numpy as np
 import pytest
 
-from slamlib import experiments as ex
+from slamlib import runner as ex
 from slamlib import studies
 from slamlib.ekf import EKFSLAM, EKFLocalization
 from slamlib.ekf_dense import DenseEKFLocalization, DenseEKFSLAM

@@ -1,6 +1,6 @@
 """Tests of slamlib.delay: late camera frames fused at their capture time (chapter 08).
 
-The reference everywhere is the plain filter driven by experiments.run_filter
+The reference everywhere is the plain filter driven by runner.run_filter
 with frames delivered at their capture time (a camera without delay), which
 does not use slamlib.delay at all.
 """
@@ -10,7 +10,7 @@ import math
 import numpy as np
 import pytest
 
-from slamlib import experiments, sim
+from slamlib import runner, sim
 from slamlib.delay import (
     DelayedEKF,
     compensate_readings,
@@ -54,7 +54,7 @@ def _assert_filters_equal(f, g, tol=1e-9):
 @pytest.mark.parametrize("kind", ["slam", "localization"])
 def test_zero_latency_wrapper_equals_plain_filter(kind):
     run = sim.scenario("arena_loop", latency=0.0)
-    plain = experiments.run_filter(run, make_filter(run, kind), by="arrival")
+    plain = runner.run_filter(run, make_filter(run, kind), by="arrival")
     d = run_delayed(run, make_filter(run, kind))
     assert d.wrapper.replays == 0
     _assert_traces_equal(d.realtime, plain, tol=0.0)
@@ -66,7 +66,7 @@ def test_zero_latency_wrapper_equals_plain_filter(kind):
 @pytest.mark.parametrize("which", ["late_run", "off_tick_run"])
 def test_late_frames_by_arrival_equal_plain_filter_by_capture(kind, which, request):
     run = request.getfixturevalue(which)
-    ref = experiments.run_filter(run, make_filter(run, kind), by="capture")
+    ref = runner.run_filter(run, make_filter(run, kind), by="capture")
     d = run_delayed(run, make_filter(run, kind), max_delay=1.0, by="arrival")
     assert d.statuses() == {"fused": len(ref.reports)}
     assert d.wrapper.replays > 0                      # it really went back in time
@@ -80,8 +80,8 @@ def test_late_frames_by_arrival_equal_plain_filter_by_capture(kind, which, reque
 
 
 def test_naive_filter_differs_and_fixed_does_not(late_run):
-    ref = experiments.run_filter(late_run, make_filter(late_run, "localization"), by="capture")
-    naive = experiments.run_filter(late_run, make_filter(late_run, "localization"), by="arrival")
+    ref = runner.run_filter(late_run, make_filter(late_run, "localization"), by="capture")
+    naive = runner.run_filter(late_run, make_filter(late_run, "localization"), by="arrival")
     fixed = run_delayed(late_run, make_filter(late_run, "localization")).realtime
     a_ref, a_naive, a_fixed = (tr.metrics()["ate_xy"] for tr in (ref, naive, fixed))
     assert a_naive > 4 * a_ref                     # 0.3 s late frames hurt the naive filter
@@ -101,7 +101,7 @@ def test_out_of_order_arrivals_are_put_back_in_order(late_run):
               late_run.ticks_L, cam, late_run.meta)
     arrivals = [ev.obs.t for ev in run.events(by="arrival") if ev.kind == "update"]
     assert np.any(np.diff(arrivals) < 0)           # some frames really arrive out of order
-    ref = experiments.run_filter(run, make_filter(run, "slam"), by="capture")
+    ref = runner.run_filter(run, make_filter(run, "slam"), by="capture")
     d = run_delayed(run, make_filter(run, "slam"), max_delay=0.5)
     _assert_traces_equal(d.settled, ref)
     _assert_filters_equal(d.wrapper.filter, ref.filter)
@@ -117,7 +117,7 @@ def test_frames_older_than_max_delay_are_rejected(late_run):
     # (the filter's clock stays at the last prediction, 0.1 and 0.2 s after their capture)
     assert d.statuses() == {"too_old": len(d.updates) - 2, "fused": 2}
     # so the map was made from the last two frames only, at the end of a dead-reckoned drive
-    dr = experiments.dead_reckoning(late_run)
+    dr = runner.dead_reckoning(late_run)
     before = d.realtime.x[d.realtime.t <= late_run.enc_t[-1] - 0.3]
     assert np.allclose(before[-1], dr.x[dr.t <= late_run.enc_t[-1] - 0.3][-1], atol=1e-12)
 
@@ -246,8 +246,8 @@ def test_compensate_readings_is_exact_with_exact_poses():
 def test_run_compensated_is_close_to_the_fix(late_run):
     world = late_run.world()
     comp = run_compensated(late_run, make_filter(late_run, "slam"))
-    ref = experiments.run_filter(late_run, make_filter(late_run, "slam"), by="capture")
-    naive = experiments.run_filter(late_run, make_filter(late_run, "slam"), by="arrival")
+    ref = runner.run_filter(late_run, make_filter(late_run, "slam"), by="capture")
+    naive = runner.run_filter(late_run, make_filter(late_run, "slam"), by="arrival")
     m_c, m_r, m_n = comp.metrics(world), ref.metrics(world), naive.metrics(world)
     assert m_c["map_rmse"] < 2 * m_r["map_rmse"] < m_n["map_rmse"]
     assert m_c["ate_xy"] < 2 * m_r["ate_xy"]

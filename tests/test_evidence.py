@@ -10,7 +10,7 @@ import pytest
 
 from slamlib.course import evidence as ev
 from slamlib.ekf import EKFLocalization
-from slamlib.experiments import DEFAULT_P0, reading_covariances, run_filter
+from slamlib.runner import DEFAULT_P0, reading_covariances, run_filter
 from slamlib.runs import load_run
 
 
@@ -32,7 +32,7 @@ def test_stored_study_recomputes_exactly(name, seeds):
 def test_seed_1_is_the_recorded_run():
     """The studies' seed 1 is data/runs/arena_loop: its stored gate-0.95 numbers are those
     of the library's own localization on the recorded run."""
-    from slamlib.experiments import localization
+    from slamlib.runner import localization
 
     tr = localization(load_run("arena_loop"))
     stored = ev.load_study("arena_localization")["runs"][0]["clean/0.95"]

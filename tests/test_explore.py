@@ -6,7 +6,7 @@ from dataclasses import replace
 import numpy as np
 import pytest
 
-from slamlib import experiments
+from slamlib import runner
 from slamlib.explore import (
     CoverageGrid,
     Explorer,
@@ -157,7 +157,7 @@ def test_same_seed_same_exploration_other_seed_other(run_with_return):
 def test_replaying_the_recorded_run_gives_the_same_estimates(run_with_return):
     # the filter in the loop saw exactly the data the run recorded, in the order run_filter uses
     ex = run_with_return
-    replay = experiments.slam(ex.run)
+    replay = runner.slam(ex.run)
     assert np.array_equal(replay.kind, ex.trace.kind)
     assert np.allclose(replay.t, ex.trace.t, atol=1e-6)
     # readings are rounded to 10 um / 1 urad in a Run: the estimates agree to that level

@@ -5,7 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slamlib import experiments as ex
+from slamlib import runner as ex
 from slamlib import sim, studies
 from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM, predict_readings
 from slamlib.metrics import chi2_band

@@ -7,8 +7,8 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from slamlib import experiments as ex
 from slamlib import graph
+from slamlib import runner as ex
 from slamlib.ekf import EKFLocalization
 from slamlib.metrics import pose_error
 from slamlib.models import (

@@ -68,7 +68,7 @@ def test_the_import_parser_sees_every_way_to_import_the_course():
     # inside the package slamlib.vision, "from . import course" is slamlib.vision.course
     assert imports_course(imported_modules("from . import course", "slamlib.vision",
                                            is_package=True)) == []
-    for src in ("from .models import observe", "from . import experiments as ex",
+    for src in ("from .models import observe", "from . import runner as ex",
                 "from ..models import wrap_angle", "import numpy as np"):
         assert imports_course(imported_modules(src, "slamlib.datasets.identify")) == [], src
 

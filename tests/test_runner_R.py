@@ -7,7 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from slamlib import experiments as ex
+from slamlib import runner as ex
 from slamlib import sim
 from slamlib.vision import NoiseModel
 

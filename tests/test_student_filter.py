@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 
 from slamlib import ekf_textbook as tb
-from slamlib import experiments
+from slamlib import runner
 from slamlib.course import student_filter as sf
 from slamlib.runs import load_run
 
@@ -25,7 +25,7 @@ def joint_update_mirror(x, P, z, z_pred, H, R):
 
 
 def test_right_functions_reproduce_the_library_filter(run):
-    lib = experiments.slam(run, gate=0.95, max_time=30.0)
+    lib = runner.slam(run, gate=0.95, max_time=30.0)
     mine = sf.drive(run, joint_update=joint_update_mirror, stacked_jacobian=tb.stacked_jacobian,
                     max_time=30.0, verbose=False)
     assert mine.filter.functions["joint_update"] is joint_update_mirror
@@ -42,7 +42,7 @@ def test_stubs_fall_back_to_the_textbook_and_say_so(run, capsys):
     out = capsys.readouterr().out
     assert "my_joint_update does not pass check_joint_update" in out
     assert mine.filter.functions["joint_update"] is tb.joint_update
-    lib = experiments.slam(run, gate=0.95, max_time=5.0)
+    lib = runner.slam(run, gate=0.95, max_time=5.0)
     assert sf.difference(mine, lib)["state"] < 1e-12
 
 

@@ -10,7 +10,7 @@
 import numpy as np
 import pytest
 
-from slamlib import experiments as ex
+from slamlib import runner as ex
 from slamlib import studies
 from slamlib.metrics import chi2_band
 from slamlib.models import wrap_angle

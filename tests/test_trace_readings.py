@@ -4,7 +4,7 @@ import numpy as np
 import pytest
 from test_ekf import P0, X0, Q, R, scripted_sequence
 
-from slamlib import experiments
+from slamlib import runner
 from slamlib.course.trace_readings import trace_readings
 from slamlib.ekf import EKFSLAM
 from slamlib.sim import scenario
@@ -12,7 +12,7 @@ from slamlib.sim import scenario
 
 @pytest.fixture(scope="module")
 def trace():
-    return experiments.slam(scenario("arena_loop"), gate=0.5)
+    return runner.slam(scenario("arena_loop"), gate=0.5)
 
 
 def test_every_reading_once_in_the_order_the_filter_got_them(trace):

@@ -1,7 +1,7 @@
 """Chapter 09's study: the course's runs with the ids hidden, associated by NN or JCBB.
 
 - :func:`run_without_ids` drives a filter over a run like
-  :func:`slamlib.experiments.run_filter`, but hands it ``update(None, z)``
+  :func:`slamlib.runner.run_filter`, but hands it ``update(None, z)``
   (for ``association="ids"`` the ids as read) and keeps each frame's true ids;
 - :func:`association_errors` scores a run: how many readings were fused into
   the wrong landmark, rejected, or started a landmark from clutter;
@@ -21,7 +21,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import experiments as ex
+from .. import runner as ex
 from ..confirmation import ConfirmedSLAM
 from ..ekf import EKFSLAM
 from ..metrics import ate
@@ -52,7 +52,7 @@ def run_without_ids(run: Run, filt, *, max_time: float | None = None):
 
     Returns
     -------
-    (trace, true_ids) : (slamlib.experiments.Trace, list of numpy.ndarray)
+    (trace, true_ids) : (slamlib.runner.Trace, list of numpy.ndarray)
         The trace (one report per frame with readings) and, per report, the
         true marker of each reading (-1 for clutter).
     """

@@ -41,9 +41,9 @@ from pathlib import Path
 import numpy as np
 
 from ..ekf import EKFLocalization
-from ..experiments import DEFAULT_P0, reading_covariances, run_filter
 from ..metrics import nees as _nees
 from ..metrics import pose_error
+from ..runner import DEFAULT_P0, reading_covariances, run_filter
 from ..runs import CameraRows, Run
 from ..studies import sample_trace
 from ..worlds import DATA_DIR
@@ -81,7 +81,7 @@ class ModelRLocalization(EKFLocalization):
     """The library's map-based EKF, its readings' covariance scaled and, if asked, modelled.
 
     Each reading gets ``factor**2 * R_i``: ``R_i`` is what ``update`` is given
-    (:func:`slamlib.experiments.run_filter` hands it the run's sensor's
+    (:func:`slamlib.runner.run_filter` hands it the run's sensor's
     ``R(range)``) or, when it is given none, ``noise.R(range)`` of the
     ``noise`` model (e.g. :data:`slamlib.vision.DEFAULT_NOISE_MODEL` for a
     run of the rendered camera, whose model a run does not record).
@@ -217,7 +217,7 @@ def localization_seed(seed: int) -> dict:
 
 def slam_seed(seed: int) -> dict:
     """EKF SLAM (gate 0.95) on ``arena_loop`` with ``seed``: :func:`trace_stats` with series."""
-    from ..experiments import slam
+    from ..runner import slam
     from ..sim import scenario
 
     return {"slam": trace_stats(slam(scenario("arena_loop", seed=seed)), series=True)}
@@ -231,7 +231,7 @@ def slam_misreads_seed(seed: int) -> dict:
     are ids the world does not have, and the map's RMS error over the true ids.
     """
     from ..confirmation import confirmed_slam
-    from ..experiments import map_error, slam
+    from ..runner import map_error, slam
     from ..sim import scenario
 
     run = scenario("arena_loop_misreads", seed=seed)

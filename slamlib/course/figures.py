@@ -7,7 +7,7 @@ same byte for byte on every run with the same library versions. A table of
 each filter run's metrics is printed at the end.
 
 The figures are drawn by the same functions the chapters call
-(:mod:`slamlib.course.plots`, the chapters' ``plots_chNN``, :mod:`slamlib.experiments`);
+(:mod:`slamlib.course.plots`, the chapters' ``plots_chNN``, :mod:`slamlib.runner`);
 nothing here computes anything a chapter does not.
 """
 
@@ -25,7 +25,7 @@ matplotlib.use("Agg")
 import matplotlib.pyplot as plt  # noqa: E402
 import numpy as np  # noqa: E402
 
-from .. import experiments  # noqa: E402
+from .. import runner  # noqa: E402
 from ..runs import load_run  # noqa: E402
 from . import plots, plots_ch02, plots_ch05, plots_ch06, plots_ch07, plots_ch08  # noqa: E402
 
@@ -64,7 +64,7 @@ class _Context:
     def trace(self, label: str, run_name: str, method: str, **kw):
         def make():
             run = self.run(run_name)
-            tr = getattr(experiments, method)(run, **kw)
+            tr = getattr(runner, method)(run, **kw)
             self.metrics.append((label, tr.metrics(run.world())))
             return tr
         return self.get(f"trace:{label}", make)

@@ -43,8 +43,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import experiments as ex
 from .. import graph
+from .. import runner as ex
 from ..datasets import identify, mrclam
 from ..metrics import nees, pose_error
 from ..models import observe, wrap_angle

@@ -4,7 +4,7 @@ For each seed, the arena loop is re-simulated (:func:`slamlib.sim.scenario`),
 at the nominal wheel slip and at a high one, and five estimates are made from
 the SAME run:
 
-- ``ekf``: :func:`slamlib.experiments.slam` (filtered: the pose at t from the
+- ``ekf``: :func:`slamlib.runner.slam` (filtered: the pose at t from the
   readings up to t; with its chi-square gate, 0.95; ``rejected``: readings it rejected);
 - ``ekf_ungated``: the same without the gate (every reading fused, as in the graph);
 - ``isam2_online``: :func:`slamlib.graph.smooth` ``(method="isam2")``, the
@@ -38,8 +38,8 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import experiments as ex
 from .. import graph
+from .. import runner as ex
 from ..metrics import chi2_band, nees, pose_error
 from ..sim import scenario
 from ..studies import sample_trace

@@ -176,7 +176,7 @@ def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: flo
     ----------
     ax : matplotlib Axes
         Prepared with :func:`world_axes` (done here if it is not yet inverted).
-    trace : slamlib.experiments.Trace
+    trace : slamlib.runner.Trace
     world : World, optional
         The true markers to draw.
     legend_outside : bool
@@ -228,7 +228,7 @@ def plot_error_comparison(traces, *, colors=("tab:red", "tab:blue", "tab:green",
     Parameters
     ----------
     traces : dict name -> Trace
-        One line per run (:mod:`slamlib.experiments`).
+        One line per run (:mod:`slamlib.runner`).
     marks : array_like of float, optional
         Times to tick at the bottom of the position panel (e.g. misread readings).
     mark_label : str

@@ -4,7 +4,7 @@
 (``predict_covariance``, ``stacked_jacobian``, ``joint_update``, ``augment``:
 the signatures of :mod:`slamlib.ekf_textbook` and of the checkers in
 :mod:`slamlib.course.filter_checkers`) over a run's events, as
-:func:`slamlib.experiments.slam` runs :class:`slamlib.ekf.EKFSLAM`: the same
+:func:`slamlib.runner.slam` runs :class:`slamlib.ekf.EKFSLAM`: the same
 events, Q, P0, per-reading R and gate. Each student function is first put
 through its checker (silently); one that does not pass yet (a stub, not
 written, or not right) is replaced by the textbook's, and the driver says so,
@@ -20,8 +20,8 @@ import numpy as np
 
 from .. import ekf_textbook as tb
 from ..ekf import gate_threshold
-from ..experiments import DEFAULT_P0, Trace, TraceRecorder, reading_covariances, sensor_noise
 from ..models import motion_jacobians, motion_model
+from ..runner import DEFAULT_P0, Trace, TraceRecorder, reading_covariances, sensor_noise
 from ..runs import Run
 from .filter_checkers import (
     check_augment,
@@ -115,7 +115,7 @@ def drive(run: Run, *, predict_covariance=None, stacked_jacobian=None, joint_upd
     """Run the student's EKF SLAM over ``run`` (chapter 05) and record its :class:`Trace`.
 
     Same events (capture time), Q (``run.Q()``), P0 and per-reading R
-    (``sensor.R(range)``) as :func:`slamlib.experiments.slam`; the prediction is
+    (``sensor.R(range)``) as :func:`slamlib.runner.slam`; the prediction is
     ``x_B <- f(x_B, u)`` with ``P`` by ``predict_covariance(P, A, W, Q)``, each
     frame as :func:`slamlib.ekf_textbook.update` with ``stacked_jacobian``,
     ``joint_update`` and ``augment``. Functions that do not pass their checker

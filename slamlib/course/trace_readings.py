@@ -1,6 +1,6 @@
 """Every reading of a trace in flat arrays, by status (chapters 03, 05, 09).
 
-A :class:`slamlib.experiments.Trace` keeps one :class:`slamlib.ekf.UpdateReport`
+A :class:`slamlib.runner.Trace` keeps one :class:`slamlib.ekf.UpdateReport`
 per camera frame (``trace.reports``, a list of ``(t, report)``). The chapters
 ask questions across all frames at once (how many readings were rejected, the
 d2 of every gated reading against time, when a marker was seen): instead of a
@@ -102,7 +102,7 @@ def trace_readings(trace) -> TraceReadings:
 
     Parameters
     ----------
-    trace : slamlib.experiments.Trace or list of (t, UpdateReport)
+    trace : slamlib.runner.Trace or list of (t, UpdateReport)
         A trace, or its ``reports``.
 
     Returns

@@ -41,7 +41,7 @@ What :func:`load` does
   time. Vicon is interpolated to any time (:meth:`Log.truth_at`).
 
 The result is a :class:`Log`, a :class:`~slamlib.runs.Run` whose controls come
-from the commands: the course's runners (:mod:`slamlib.experiments`) take it
+from the commands: the course's runners (:mod:`slamlib.runner`) take it
 as they take a simulated run, and :func:`dead_reckoning`,
 :func:`localization` and :func:`slam` call them with the log's noise.
 
@@ -62,11 +62,11 @@ from pathlib import Path
 
 import numpy as np
 
-from ..experiments import Trace
-from ..experiments import dead_reckoning as _dead_reckoning
-from ..experiments import localization as _localization
-from ..experiments import slam as _slam
 from ..frames import angles_from_zup, points_from_zup, pose_from_zup
+from ..runner import Trace
+from ..runner import dead_reckoning as _dead_reckoning
+from ..runner import localization as _localization
+from ..runner import slam as _slam
 from ..runs import CameraRows, Run
 from ..sensors import AnalyticMarkerSensor
 from ..validate import as_covariance

@@ -1,9 +1,9 @@
-"""experiments.run_filter(until=t): stop before a camera frame and hand it back (chapter 05)."""
+"""runner.run_filter(until=t): stop before a camera frame and hand it back (chapter 05)."""
 
 import numpy as np
 import pytest
 
-from slamlib import experiments as ex
+from slamlib import runner as ex
 from slamlib.ekf import EKFSLAM
 from slamlib.runs import load_run
 
