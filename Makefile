@@ -83,12 +83,10 @@ bench: $(STAMP)
 	$(PY) bench/bench_vision.py
 	env -u MPLBACKEND $(PY) bench/bench_monte_carlo.py --chapters
 	$(PY) bench/bench_association.py
+	$(PY) bench/bench_graph.py
 
 clean:
 	rm -rf $(VENV) figures student book/_build .notebooks-failed .pytest_cache .hypothesis .ruff_cache
-	$(PY) bench/bench_graph.py
-
-	rm -rf $(VENV) figures student .pytest_cache .hypothesis .ruff_cache
 
 ## Regenerate chapter 11's stored study data/studies/graph_arena.json (200 runs, 2 processes)
 graph-study: $(STAMP)

@@ -130,32 +130,39 @@ def nis(innovation, S) -> np.ndarray | float:
     return mahalanobis2(innovation, S, "innovation", "S")
 
 
-def chi2_quantile(prob: float, dof: float) -> float:
+def chi2_quantile(prob, dof):
     """``chi2.ppf(prob, dof)``, the chi-square quantile: the course's one function for it
-    (the gate of chapter 05, JCBB's joint gate of chapter 09, the NEES bands).
+    (the gate of chapter 05, JCBB's joint gate of chapter 09, the NEES and NIS bands).
 
     For 2 degrees of freedom the chi-square CDF is ``1 - exp(-x/2)``, so the
     quantile has the closed form ``-2 ln(1 - prob)`` (5.991 for 0.95), used here.
+    ``dof`` may be an array (elementwise; then an array is returned).
     """
     p = as_finite_scalar("prob", prob)
     if not 0.0 < p < 1.0:
         raise ValueError(f"prob: expected a probability in (0, 1), got {p}")
-    k = as_finite_scalar("dof", dof)
-    if k <= 0:
-        raise ValueError(f"dof: expected a positive number of degrees of freedom, got {k}")
-    if k == 2:
-        return float(-2.0 * math.log1p(-p))
+    k = np.asarray(dof, dtype=float)
+    if not (np.all(np.isfinite(k)) and np.all(k > 0)):
+        raise ValueError(f"dof: expected positive numbers of degrees of freedom, got {dof!r}")
+    if k.ndim == 0:
+        if k == 2:
+            return float(-2.0 * math.log1p(-p))
+        from scipy.stats import chi2
+
+        return float(chi2.ppf(p, float(k)))
     from scipy.stats import chi2
 
-    return float(chi2.ppf(p, k))
+    return np.where(k == 2, -2.0 * math.log1p(-p), chi2.ppf(p, k))
 
 
-def chi2_band(dof: int, n_runs: int = 1, prob: float = 0.95) -> tuple[float, float]:
+def chi2_band(dof, n_runs: int = 1, prob: float = 0.95):
     """Two-sided ``prob`` band of the average of ``n_runs`` chi-square(``dof``) values.
 
     ``(chi2.ppf((1-prob)/2, n_runs*dof)/n_runs, chi2.ppf((1+prob)/2, n_runs*dof)/n_runs)``;
     the average NEES (or NIS) of a consistent filter over ``n_runs``
-    independent runs falls inside it with probability ``prob``.
+    independent runs falls inside it with probability ``prob``. With
+    ``n_runs = 1`` it is the band of one sample; ``dof`` may be an array (a
+    joint NIS with 2m degrees of freedom, m varying: chapter 03's plots).
     """
     n = as_finite_scalar("n_runs", n_runs)
     if n < 1 or n != int(n):
@@ -163,7 +170,9 @@ def chi2_band(dof: int, n_runs: int = 1, prob: float = 0.95) -> tuple[float, flo
     p = as_finite_scalar("prob", prob)
     if not 0.0 < p < 1.0:
         raise ValueError(f"prob: expected a probability in (0, 1), got {p}")
-    k = n * as_finite_scalar("dof", dof)
+    k = n * np.asarray(dof, dtype=float)
+    if k.ndim == 0:
+        k = float(k)
     return chi2_quantile((1.0 - p) / 2.0, k) / n, chi2_quantile((1.0 + p) / 2.0, k) / n
 
 

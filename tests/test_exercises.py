@@ -560,7 +560,7 @@ def test_motion_checker_names_swapped_W_columns(capsys):
 
     assert check_motion_jacobians(swapped) is False
     out = capsys.readouterr().out
-    assert "W columns are swapped" in out and "column 0 is d/dV_R" in out
+    assert "W columns are swapped" in out and "column 0 is d/dw_R" in out
 
 
 def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):

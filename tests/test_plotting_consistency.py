@@ -1,4 +1,4 @@
-"""Tests of the chi-square band helpers of chapter 03's NIS and NEES plots (course.plots_ch03)."""
+"""The band of one chi-square sample (metrics.chi2_band, one run) behind chapter 03's NIS plots."""
 
 import matplotlib
 
@@ -11,21 +11,21 @@ import pytest  # noqa: E402
 
 def test_band_of_one_sample_has_the_closed_form_for_two_dof():
     # chi-square with 2 dof: CDF 1 - exp(-x/2), so the quantile of p is -2 ln(1 - p)
-    from slamlib.course.plots_ch03 import chi2_band_per_sample
+    from slamlib.metrics import chi2_band
 
-    lo, hi = chi2_band_per_sample(2, 0.95)
+    lo, hi = chi2_band(2, 1, 0.95)
     assert lo == pytest.approx(-2 * np.log(1 - 0.025), rel=1e-12)
     assert hi == pytest.approx(-2 * np.log(0.025), rel=1e-12)
-    lo, hi = chi2_band_per_sample([2, 4, 6], 0.9)
+    lo, hi = chi2_band([2, 4, 6], 1, 0.9)
     assert lo.shape == (3,) and np.all(np.diff(lo) > 0) and np.all(np.diff(hi) > 0)
 
 
 def test_band_holds_its_probability_by_monte_carlo():
-    from slamlib.course.plots_ch03 import chi2_band_per_sample
+    from slamlib.metrics import chi2_band
 
     rng = np.random.default_rng(0)
     x = rng.chisquare(3, size=200_000)
-    lo, hi = chi2_band_per_sample(3, 0.95)
+    lo, hi = chi2_band(3, 1, 0.95)
     assert np.mean((x < lo) | (x > hi)) == pytest.approx(0.05, abs=0.003)
     assert np.mean(x < lo) == pytest.approx(0.025, abs=0.002)
 
@@ -47,13 +47,14 @@ def test_plot_chi2_series_returns_the_fraction_outside():
 
 
 def test_plot_chi2_series_rejects_bad_input():
-    from slamlib.course.plots_ch03 import chi2_band_per_sample, plot_chi2_series
+    from slamlib.course.plots_ch03 import plot_chi2_series
+    from slamlib.metrics import chi2_band
 
     fig, ax = plt.subplots()
     with pytest.raises(ValueError, match="t, values"):
         plot_chi2_series(ax, np.arange(3.0), np.ones(4), 2)
     with pytest.raises(ValueError, match="dof"):
-        chi2_band_per_sample(0)
+        chi2_band(0)
     with pytest.raises(ValueError, match="prob"):
-        chi2_band_per_sample(2, 1.5)
+        chi2_band(2, 1, 1.5)
     plt.close(fig)

@@ -133,7 +133,7 @@ def test_marker_behind_camera_or_seen_from_back_is_not_drawn():
     img = V.render_view(back, pose, CAM)
     assert len(V.detect_markers(img, CAM, 0.15)) == 0
     assert img.min() > 60                       # no black ink anywhere
-    assert V.visible_markers(back, pose, CAM).size == 0
+    assert V.markers_in_image(back, pose, CAM).size == 0
     # behind the camera: the robot turned away
     away = pose + [0.0, 0.0, math.pi]
     img = V.render_view(world, away, CAM)
@@ -154,7 +154,7 @@ def test_nearer_marker_occludes_farther_one():
     assert det.ids.tolist() == [6]
     # in the arena: from here marker 31 hides most of 21 behind it
     pose = np.array([0.8, 0.5, 1.2])
-    assert {21, 31} <= set(V.visible_markers(ARENA, pose, CAM).tolist())
+    assert {21, 31} <= set(V.markers_in_image(ARENA, pose, CAM).tolist())
     det = V.detect_markers(V.render_view(ARENA, pose, CAM), CAM, 0.15)
     assert 31 in det.ids and 21 not in det.ids
 
@@ -170,11 +170,11 @@ def test_arena_markers_detected_with_right_ids_and_ranges(pose):
     rng = np.random.default_rng(42)
     img = V.render_view(ARENA, pose, CAM, rng=rng)
     det = V.detect_markers(img, CAM, ARENA.marker_length, ARENA.dictionary)
-    expected = set(V.visible_markers(ARENA, pose, CAM, margin=5).tolist())
+    expected = set(V.markers_in_image(ARENA, pose, CAM, margin=5).tolist())
     # everything fully in view and within 4 m must be found; nothing else may be
     near = {i for i in expected if observe(pose, ARENA.marker(i).position)[0] < 4.0}
     assert near <= set(det.ids.tolist()) <= expected | set(
-        V.visible_markers(ARENA, pose, CAM).tolist())
+        V.markers_in_image(ARENA, pose, CAM).tolist())
     assert len(det) > 0
     assert det.z.shape == (len(det), 2) and det.p_cam.shape == (len(det), 3)
     for i, z in zip(det.ids, det.z):

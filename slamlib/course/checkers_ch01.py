@@ -27,8 +27,8 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
                            wheel_base: float = KOBUKI_WHEEL_BASE, verbose: bool = True) -> bool:
     """Check a student's ``fn(x, u, dt, b) -> (A, W)`` against finite differences (chapter 01).
 
-    ``A = df/dx_{k-1}`` (3x3) and ``W = df/du`` (3x2, columns ``[V_R, V_L]``)
-    of :func:`slamlib.models.motion_model` are compared with central
+    ``A = df/dx_{k-1}`` (3x3) and ``W = df/dw`` (3x2; w is the noise on ``[V_R, V_L]``,
+    so W has the entries of df/du) of :func:`slamlib.models.motion_model` are compared with central
     differences at ``n_points`` random poses, wheel speeds and time steps.
 
     Returns
@@ -67,13 +67,15 @@ def check_motion_jacobians(fn, n_points: int = 5, seed: int = 1,
             if (W_arr is not None and np.all(np.isfinite(W_arr))
                     and np.allclose(W_arr[:, ::-1], W_ref, atol=1e-6, rtol=1e-5)
                     and not np.allclose(W_arr, W_ref, atol=1e-6, rtol=1e-5)):
-                say("  Your W columns are swapped: column 0 is d/dV_R and column 1 is d/dV_L "
-                    "(u = [V_R, V_L]). (Here that gives the same numbers as a turn rate of the "
-                    "wrong sign: w = (V_L - V_R)/b in the z-down frame.)")
+                say("  Your W columns are swapped: column 0 is d/dw_R and column 1 is d/dw_L, "
+                    "the noise on V_R and on V_L (u = [V_R, V_L]). (Here that gives the same "
+                    "numbers as a turn rate of the wrong sign: omega = (V_L - V_R)/b in the "
+                    "z-down frame.)")
             for c in bad:
                 say("  " + c.message)
             say("  Hint: A is the derivative with respect to the previous pose x_{k-1}; "
-                "W's columns are d/dV_R and d/dV_L, and w = (V_L - V_R)/b in the z-down frame.")
+                "W's columns are d/dw_R and d/dw_L (w the noise on [V_R, V_L]), and the turn "
+                "rate is omega = (V_L - V_R)/b in the z-down frame.")
             return False
     say(f"{name}: correct. A and W match finite differences at {n_points} random points.")
     return True

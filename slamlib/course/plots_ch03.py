@@ -7,26 +7,12 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
+from ..metrics import chi2_band
 from .plots import plot_trace, world_axes
 
-__all__ = ["chi2_band_per_sample", "plot_chi2_series", "plot_trace_zoom", "plot_d2_histogram",
+__all__ = ["plot_chi2_series", "plot_trace_zoom", "plot_d2_histogram",
            "plot_run_values", "plot_interval_rows"]
 
-
-def chi2_band_per_sample(dof, prob: float = 0.95) -> tuple[np.ndarray, np.ndarray]:
-    """Two-sided ``prob`` band of ONE chi-square sample with ``dof`` degrees of freedom.
-
-    ``(chi2.ppf((1-prob)/2, dof), chi2.ppf((1+prob)/2, dof))``, elementwise for an
-    array of ``dof`` (e.g. a joint NIS with 2m degrees of freedom, m varying).
-    """
-    from scipy.stats import chi2
-
-    dof = np.asarray(dof, dtype=float)
-    if not 0.0 < prob < 1.0:
-        raise ValueError(f"prob: expected a probability in (0, 1), got {prob}")
-    if np.any(dof <= 0) or not np.all(np.isfinite(dof)):
-        raise ValueError("dof: expected positive degrees of freedom")
-    return chi2.ppf(0.5 * (1.0 - prob), dof), chi2.ppf(0.5 * (1.0 + prob), dof)
 
 def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = False,
                      label: str = "value", color: str = "tab:blue", ms: float = 3.0,
@@ -34,7 +20,7 @@ def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = 
     """Chi-square distributed values (NIS, NEES, d2) against time, with the ``prob`` band.
 
     Each value is one sample of a chi-square with its ``dof`` (a scalar or one
-    per value). The band of a single sample (:func:`chi2_band_per_sample`) is
+    per value). The band of a single sample (:func:`slamlib.metrics.chi2_band`) is
     drawn in gold, values outside it in red; with ``per_dof`` the values and
     the band are divided by ``dof`` (so that updates with different numbers of
     readings share one axis). The y axis is logarithmic.
@@ -50,7 +36,7 @@ def plot_chi2_series(ax, t, values, dof, *, prob: float = 0.95, per_dof: bool = 
     d = np.broadcast_to(np.asarray(dof, dtype=float), v.shape)
     if t.shape != v.shape:
         raise ValueError(f"t, values: expected equal shapes, got {t.shape} and {v.shape}")
-    lo, hi = chi2_band_per_sample(d, prob)
+    lo, hi = chi2_band(d, 1, prob)
     scale = d if per_dof else np.ones_like(d)
     out = (v < lo) | (v > hi)
     ax.fill_between(t, lo / scale, hi / scale, step="mid", color="gold", alpha=0.45, lw=0,

@@ -53,7 +53,7 @@ __all__ = [
     "camera_to_range_bearing", "base_pose_matrix",
     "get_dictionary", "read_dictionary", "marker_image", "marker_object_points",
     "marker_corners_world",
-    "project_marker_corners", "visible_markers", "render_view",
+    "project_marker_corners", "markers_in_image", "render_view",
     "Detections", "make_detector", "estimate_marker_pose", "detect_markers",
     "CameraMarkerSensor", "match_ground_truth",
     "single_marker_scene", "ErrorStudy", "error_study", "NoiseModel", "fit_noise_model",
@@ -114,9 +114,9 @@ from .noise import (  # noqa: E402
     single_marker_scene,
 )
 from .render import (  # noqa: E402
+    markers_in_image,
     project_marker_corners,
     render_view,
-    visible_markers,
 )
 from .sensor import (  # noqa: E402
     CameraMarkerSensor,

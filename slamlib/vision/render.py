@@ -4,7 +4,7 @@
 robot pose: floor, markers with their white quiet zone on posts, in perspective, back
 faces culled, near/far clipping, painter's order, anti-aliasing by supersampling,
 optional blur and pixel noise. :func:`project_marker_corners` and
-:func:`visible_markers` give the exact corners and the markers in view.
+:func:`markers_in_image` give the exact corners and the markers in view.
 """
 
 from __future__ import annotations
@@ -28,7 +28,7 @@ from .markers import (
     marker_corners_world,
 )
 
-__all__ = ["project_marker_corners", "visible_markers", "render_view"]
+__all__ = ["project_marker_corners", "markers_in_image", "render_view"]
 
 
 def _to_camera(T_cam_world: np.ndarray, pts: np.ndarray) -> np.ndarray:
@@ -116,11 +116,14 @@ def _scene_faces(world: World, pose, camera: Camera, *, quiet_cells: float, near
     faces.sort(key=lambda f: (-round(f.depth, 9), f.order))
     return faces, T_cw
 
-def visible_markers(world: World, pose, camera: Camera, *, near: float = 0.05,
+def markers_in_image(world: World, pose, camera: Camera, *, near: float = 0.05,
                     far: float = 30.0, margin: float = 0.0) -> np.ndarray:
     """Ids of markers whose printed face is drawn and lies fully inside the image.
 
-    Occlusion by other markers is not considered. ``margin`` (px) shrinks the image.
+    The camera's view (corners projected into the image), not the analytic
+    sensor's rule (:func:`slamlib.sensors.visible_markers`: field of view,
+    range and viewing angle). Occlusion by other markers is not considered. ``margin`` (px)
+    shrinks the image.
     """
     faces, T_cw = _scene_faces(world, pose, camera, quiet_cells=1.0, near=near, far=far,
                                post_width=0.03, cell_px=4)
