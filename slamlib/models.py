@@ -384,7 +384,9 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
         H_pose     = [[-dx/r, -dy/r,  0],   H_landmark = [[ dx/r, dy/r],
                       [ dy/q, -dx/q, -1]]                 [-dy/q, dx/q]]
 
-    A landmark on top of the robot has no bearing: its rows come back NaN.
+    (The report prints ``+dx/q`` in ``H_pose[1, 1]`` and ``+dy/q`` in
+    ``H_landmark[1, 0]``: both signs are wrong, appendix A.) A landmark on top
+    of the robot has no bearing: its rows come back NaN.
 
     Parameters
     ----------
