@@ -377,27 +377,32 @@ class AnalyticMarkerSensor:
         for f in range(F):
             idx = np.flatnonzero(seen[f])
             ids_true = world_ids[idx]
-            ids = ids_true.copy()
-            if self.p_misread > 0.0:
-                for j, i in enumerate(idx):
-                    if U[f, i, 0] < self.p_misread:
-                        ids[j] = self._wrong_id(int(ids_true[j]), world_ids, U[f, i, 1],
-                                                U[f, i, 2])
-            z = np.column_stack([rho[f, idx], beta[f, idx]])
-            z_true = np.column_stack([rho_t[f, idx], beta_t[f, idx]])
-            true_ids = ids_true
-            u_out = V[f]
-            if u_out[0] < self.p_outlier:
-                r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
-                b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
-                id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
-                ids = np.append(ids, id_o)
-                z = np.vstack([z, [r_o, b_o]])
-                z_true = np.vstack([z_true, [np.nan, np.nan]])
-                true_ids = np.append(true_ids, -1)
-            out.append(Observations(times[f], ids, z, true_ids, z_true,
-                                    t_arrival=times[f] + latency))
+            obs = self._with_faults(idx, ids_true, np.column_stack([rho[f, idx], beta[f, idx]]),
+                                    np.column_stack([rho_t[f, idx], beta_t[f, idx]]), U[f], V[f],
+                                    world_ids)
+            obs.t, obs.t_arrival = times[f], times[f] + latency
+            out.append(obs)
         return out
+
+    def _with_faults(self, idx, ids_true, z, z_true, u_fault, u_out, world_ids) -> Observations:
+        """The frame's readings (markers ``idx`` of the world) with the misreads and the outlier
+        that the fixed draws ``u_fault`` (n, 3) and ``u_out`` (5,) decide (capture time NaN)."""
+        ids = ids_true.astype(np.int64).copy()
+        if self.p_misread > 0.0:
+            for j, i in enumerate(idx):
+                if u_fault[i, 0] < self.p_misread:
+                    ids[j] = self._wrong_id(int(ids_true[j]), world_ids, u_fault[i, 1],
+                                            u_fault[i, 2])
+        true_ids = ids_true.astype(np.int64)
+        if u_out[0] < self.p_outlier:
+            r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
+            b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
+            id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
+            ids = np.append(ids, id_o)
+            z = np.vstack([z, [r_o, b_o]])
+            z_true = np.vstack([z_true, [np.nan, np.nan]])
+            true_ids = np.append(true_ids, -1)
+        return Observations(float("nan"), ids, z, true_ids, z_true)
 
     def _read(self, geo: _Geometry, pose: np.ndarray, rng: np.random.Generator) -> Observations:
         """:meth:`read` on a checked pose and the world's arrays (the simulator's loop)."""
@@ -417,20 +422,6 @@ class AnalyticMarkerSensor:
         rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * e[idx, 0]
         rho = np.maximum(rho, 0.0)
         beta = _wrap_array(beta_t + self.sigma_bearing * e[idx, 1]) if idx.size else np.zeros(0)
-        ids = ids_true.astype(np.int64).copy()
         world_ids = geo.ids.astype(np.int64) if n else np.zeros(0, np.int64)
-        for j, i in enumerate(idx):
-            if u_fault[i, 0] < self.p_misread:
-                ids[j] = self._wrong_id(int(ids_true[j]), world_ids, u_fault[i, 1], u_fault[i, 2])
-        z = np.column_stack([rho, beta])
-        z_true = np.column_stack([rho_t, beta_t])
-        true_ids = ids_true.astype(np.int64)
-        if u_out[0] < self.p_outlier:
-            r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
-            b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
-            id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
-            ids = np.append(ids, id_o)
-            z = np.vstack([z, [r_o, b_o]])
-            z_true = np.vstack([z_true, [np.nan, np.nan]])
-            true_ids = np.append(true_ids, -1)
-        return Observations(float("nan"), ids, z, true_ids, z_true)
+        return self._with_faults(idx, ids_true, np.column_stack([rho, beta]),
+                                 np.column_stack([rho_t, beta_t]), u_fault, u_out, world_ids)
