@@ -15,7 +15,8 @@ import matplotlib.pyplot as plt
 import numpy as np
 from matplotlib.patches import Ellipse
 
-__all__ = ["FIGSIZE", "DPI", "TRUTH_STYLE", "ESTIMATE_STYLE", "world_axes", "plot_world",
+__all__ = ["FIGSIZE", "DPI", "TRUTH_STYLE", "ESTIMATE_STYLE", "world_axes", "finish_top_view",
+           "plot_world",
            "covariance_ellipse_params", "plot_covariance_ellipse", "plot_robot", "plot_trajectory",
            "plot_pose_errors", "plot_trace", "plot_trace_errors", "plot_error_comparison"]
 
@@ -207,13 +208,7 @@ def plot_trace(ax, trace, world=None, *, ellipse_every: float = 5.0, nsigma: flo
             plot_covariance_ellipse(ax, lms[i], trace.filter.landmark_cov(i), nsigma,
                                     color="tab:blue", alpha=0.25)
     ax.plot(*trace.truth[0, :2], "o", color="k", ms=5, label="start")
-    if legend_outside:
-        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
-    else:
-        ax.legend(loc="best", fontsize=7)
-    if title:
-        ax.set_title(title)
-    return ax
+    return finish_top_view(ax, title, legend_outside)
 
 def plot_trace_errors(trace, *, nsigma: float = 2.0, axes=None, title: str | None = None):
     """x, y, theta errors of a filter run with its ``nsigma`` bands (the report's Figs. 6, 8)."""
@@ -259,3 +254,14 @@ def plot_error_comparison(traces, *, colors=("tab:red", "tab:blue", "tab:green",
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     return fig, axes
+
+
+def finish_top_view(ax, title: str | None = None, legend_outside: bool = False):
+    """A top view's legend (beside the axes, or inside where it fits best) and title; ``ax``."""
+    if legend_outside:
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
+    else:
+        ax.legend(loc="best", fontsize=7)
+    if title:
+        ax.set_title(title)
+    return ax

@@ -7,7 +7,7 @@ from __future__ import annotations
 import matplotlib.pyplot as plt
 import numpy as np
 
-from .plots import DPI, plot_trace, world_axes
+from .plots import DPI, finish_top_view, plot_trace, world_axes
 
 __all__ = ["RETURN_STYLE", "plot_coverage", "plot_exploration", "plot_exploration_history"]
 
@@ -68,13 +68,7 @@ def plot_exploration(ax, exploration, world=None, *, ellipse_every: float = 20.0
             ax.plot(pts[:, 0], pts[:, 1], "o", mfc="none", mec="tab:orange", ms=14, mew=1.5,
                     label="anchor of a return", zorder=5)
     ax.plot(*tr.truth[-1, :2], "s", color="k", ms=5, label="end (truth)")
-    if legend_outside:
-        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
-    else:
-        ax.legend(loc="best", fontsize=7)
-    if title:
-        ax.set_title(title)
-    return ax
+    return finish_top_view(ax, title, legend_outside)
 
 def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
                              title: str | None = None):
