@@ -1,7 +1,7 @@
 """Benchmark: cost of one step of EKF SLAM and of iSAM2 against the map's size (prints numbers).
 
 One simulated loop through random marker worlds of increasing size
-(:func:`slamlib.studies.random_loop_run`, the same seed), driven through
+(:func:`slamlib.course.studies_ch06.random_loop_run`, the same seed), driven through
 
 - :class:`slamlib.ekf.EKFSLAM`: the time of one camera step, i.e. the
   predictions since the previous frame plus the update (O(n^2) in the state);
@@ -26,9 +26,9 @@ import time
 import numpy as np
 
 from slamlib import graph
+from slamlib.course.studies_ch06 import random_loop_run
 from slamlib.ekf import EKFSLAM
 from slamlib.runner import DEFAULT_P0, default_R, reading_covariances
-from slamlib.studies import random_loop_run
 
 
 def ekf_step_times(run) -> tuple[np.ndarray, np.ndarray]:

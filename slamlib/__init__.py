@@ -19,7 +19,7 @@ One module per idea:
 - ``runner``       runs a filter over a recorded run: its trace, and the one way to build it
 - ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)
 - ``association``  readings without ids: individual compatibility, nearest neighbour, JCBB (ch. 09)
-- ``studies``      Monte-Carlo NEES, marker-density and re-observation studies (chapter 06)
+- ``studies``      Monte-Carlo NEES over seeded runs and the loop closure's re-observation
 - ``delay``        late camera frames fused at their capture time by re-prediction (ch. 08)
 - ``explore``      closed-loop exploration steered by the SLAM estimate (chapter 07)
 - ``graph``        the same runs as a factor graph, smoothed with GTSAM (batch, iSAM2; ch. 11)

@@ -1,19 +1,17 @@
-"""Studies over many simulated runs: Monte-Carlo NEES, marker density, loop-closure gate (ch. 06).
+"""Studies over many simulated runs: Monte-Carlo NEES and the loop closure's gate (ch. 05, 06, 11).
 
 One filter run says little about a filter's statistics: its errors at
 neighbouring instants are strongly correlated, so a time average over one run
-is close to one sample. The report's discussion (section VII) makes three
-claims that need many runs to be checked; this module runs them, and
-``tests/test_consistency.py``, ``tests/test_studies.py``, chapter 06 and the
-figure script share it.
+is close to one sample. This module runs many: ``tests/test_consistency.py``,
+the chapters' stored studies (:mod:`slamlib.course`: chapter 06's in
+``studies_ch06``, the marker-density sweep and the observability check among
+them) and the figure script share it.
 
 - :func:`monte_carlo` / :func:`monte_carlo_nees`: re-simulate a recorded
   scenario with independent seeds, run the map-based EKF and/or EKF SLAM on
   each, and sample the pose NEES (and the heading's normalised error alone) on
   a fixed time grid. :meth:`NEESStudy.average` is the Monte-Carlo average to
   compare with :func:`slamlib.metrics.chi2_band` ``(3, N)``.
-- :func:`density_sweep`: EKF SLAM in random marker worlds of one extent and
-  increasing marker counts, over several seeds: ATE, final error, map RMSE.
 - :func:`reobservation`: in one SLAM trace, the first reading of the first
   mapped landmark after its longest absence (the loop closure), its squared
   Mahalanobis distance against the gate, and when (if ever) a reading of that
@@ -35,9 +33,8 @@ from .metrics import nees as _nees
 from .runs import Run
 from .validate import as_covariance
 
-__all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "DensityRow",
-           "random_loop_run", "density_sweep", "Reobservation", "reobservation",
-           "LandmarkPlacement", "landmark_placement", "DENSITY_EXTENT"]
+__all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "Reobservation",
+           "reobservation", "map_jobs"]
 
 _METHODS = ("localization", "slam", "fej", "ideal")
 
@@ -198,7 +195,7 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "s
     t_end = None if t_end is None else float(t_end)
     jobs = [(scenario_name, s, methods, float(step), t_end, sigma_wheel, gate, Q,
              sensor_overrides) for s in seeds]
-    results = _map(_one_seed, jobs, int(workers))
+    results = map_jobs(_one_seed, jobs, int(workers))
     end = min(e for e, _ in results) if t_end is None else t_end
     t = np.arange(1, int(np.floor(end / step + 1e-9)) + 1) * step
     T = t.size
@@ -212,8 +209,13 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "s
     return out
 
 
-def _map(func, jobs: list, workers: int) -> list:
-    """``[func(j) for j in jobs]``, in order, in this process or in a pool of ``workers``."""
+def map_jobs(func, jobs: list, workers: int = 1) -> list:
+    """``[func(j) for j in jobs]``, in order, in this process or in a pool of ``workers``.
+
+    The studies' one way to share seeds between processes: ``func`` must be a
+    module-level function of one job, so that the answer does not depend on
+    which process ran which job (nor on ``workers``).
+    """
     if workers == 1 or len(jobs) < 2:
         return [func(j) for j in jobs]
     import multiprocessing as mp
@@ -229,76 +231,6 @@ def monte_carlo_nees(scenario_name: str, method: str = "slam",
                      seeds: Iterable[int] = range(1000, 1020), **kwargs) -> NEESStudy:
     """:func:`monte_carlo` for one filter: ``study.t`` and ``study.average()`` are the curve."""
     return monte_carlo(scenario_name, (method,), seeds, **kwargs)[method]
-
-
-# --------------------------------------------------------------------------- marker density
-#: The random worlds of the density sweep: :func:`slamlib.worlds.random_world`'s default extent.
-DENSITY_EXTENT = (0.0, 6.0, -3.0, 3.0)
-
-
-def random_loop_run(count: int, seed: int, *, extent=DENSITY_EXTENT, sigma_wheel: float = 0.02,
-                    margin: float = 1.0) -> tuple:
-    """A loop through a random world of ``count`` markers (world and motion from ``seed``).
-
-    Returns ``(world, run)``: the world is not a file of ``data/worlds``, so
-    ``run.world()`` cannot load it; use the one returned.
-
-    The world is :func:`slamlib.worlds.random_world` ``(extent, count, seed=seed)``;
-    the path is the ellipse of :func:`slamlib.sim.loop_waypoints` (``margin``
-    from the border, a little more than one lap), started on the ellipse
-    heading along it, as in the recorded ``random_loop``; the analytic sensor.
-    """
-    from .sensors import AnalyticMarkerSensor
-    from .sim import KobukiParams, WaypointController, loop_waypoints, simulate
-    from .worlds import random_world
-
-    world = random_world(extent=extent, count=count, seed=seed)
-    wp = loop_waypoints(world.bounds, margin=margin)
-    start = np.array([wp[0, 0], wp[0, 1], -np.pi / 2])     # on the ellipse, heading -y
-    run = simulate(world, WaypointController(wp[1:]), sensor=AnalyticMarkerSensor(),
-                   seed=seed, params=KobukiParams(sigma_wheel=sigma_wheel), start_pose=start,
-                   name=f"random_{count}_seed{seed}")
-    return world, run
-
-
-@dataclass
-class DensityRow:
-    """One EKF SLAM run of the density sweep."""
-
-    count: int
-    seed: int
-    ate: float
-    final_error: float
-    map_rmse: float
-    landmarks: int
-    mean_nees: float
-    placements: tuple = ()
-
-
-def density_sweep(counts: Sequence[int] = (4, 8, 16, 32), seeds: Iterable[int] = range(5), *,
-                  extent=DENSITY_EXTENT, sigma_wheel: float = 0.02,
-                  gate: float | None = 0.95, workers: int = 1) -> list[DensityRow]:
-    """EKF SLAM on :func:`random_loop_run` for every marker count and seed.
-
-    Returns one :class:`DensityRow` per (count, seed), counts outermost, with
-    the run's :func:`landmark_placement`. ``map_rmse`` is NaN when no landmark
-    was mapped. ``workers`` processes share the runs (the same rows for any
-    number of workers).
-    """
-    seeds = tuple(int(s) for s in seeds)
-    if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
-        raise ValueError(f"workers: expected a positive integer, got {workers!r}")
-    jobs = [(int(n), s, extent, sigma_wheel, gate) for n in counts for s in seeds]
-    return _map(_density_row, jobs, int(workers))
-
-
-def _density_row(job: tuple) -> DensityRow:
-    n, s, extent, sigma_wheel, gate = job
-    world, run = random_loop_run(n, s, extent=extent, sigma_wheel=sigma_wheel)
-    tr = ex.slam(run, gate=gate)
-    m = tr.metrics(world)
-    return DensityRow(n, s, m["ate_xy"], m["final_xy_error"], m.get("map_rmse", float("nan")),
-                      int(m["landmarks"]), m["mean_nees"], tuple(landmark_placement(tr, world)))
 
 
 # --------------------------------------------------------------------------- loop closure
@@ -384,245 +316,3 @@ def reobservation(trace: ex.Trace, marker_id: int | None = None) -> Reobservatio
 
 
 # --------------------------------------------------------------------------- landmark placement
-@dataclass
-class LandmarkPlacement:
-    """Where one landmark was put when it was mapped, and where it ended up (m)."""
-
-    marker_id: int
-    t_added: float
-    pose_error: float
-    heading_error: float
-    error_added: float
-    error_final: float
-
-
-def landmark_placement(trace: ex.Trace, world) -> list[LandmarkPlacement]:
-    """For every landmark of a SLAM ``trace``: the robot's position and heading error when
-    the landmark was added, the landmark's error then, and its error at the end.
-
-    The landmark's first estimate is recomputed from the trace: the inverse
-    observation (:func:`slamlib.models.inverse_observe`) of its first reading
-    from the pose after that update, which is what :class:`~slamlib.ekf.EKFSLAM`
-    does. Ids not in ``world`` (misreads) are left out.
-    """
-    from .models import inverse_observe
-
-    true = world.landmarks()
-    final = trace.filter.landmarks
-    out = []
-    upd = np.flatnonzero(trace.kind == "update")
-    for (t, rep), k in zip(trace.reports, upd):
-        for i in np.flatnonzero(rep.new):
-            mid = int(rep.ids[i])
-            if mid not in true:
-                continue
-            p0 = inverse_observe(trace.x[k], rep.z[i])
-            e = trace.error[k]
-            out.append(LandmarkPlacement(mid, float(t), float(np.hypot(e[0], e[1])),
-                                         float(e[2]), float(np.hypot(*(p0 - true[mid]))),
-                                         float(np.hypot(*(final[mid] - true[mid])))))
-    return out
-
-
-# --------------------------------------------------------------------------- chapter 06's table
-#: The Monte-Carlo studies of chapter 06, stored in ``data/studies/ch06_consistency.json`` by
-#: ``make studies`` (``tools/make_studies.py``): key -> (scenario, sigma_wheel, filter's Q,
-#: gate, methods). ``"nominal"`` Q is the one of sigma_wheel = 0.02 (the filter does not
-#: know the slip); ``"matched"`` follows the run.
-CH06_STUDIES = {
-    "arena_0.02": ("arena_loop", 0.02, "matched", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.10": ("arena_loop", 0.10, "matched", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.14": ("arena_loop", 0.14, "matched", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.10_nominalQ": ("arena_loop", 0.10, "nominal", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.14_nominalQ": ("arena_loop", 0.14, "nominal", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.14_gate0.99999": ("arena_loop", 0.14, "matched", 0.99999, ("slam", "fej")),
-    "arena_0.14_nominalQ_gate0.99999": ("arena_loop", 0.14, "nominal", 0.99999, ("slam",)),
-    "laps_0.02": ("arena_laps", 0.02, "matched", 0.95, ("slam", "fej", "ideal")),
-    "laps_0.10": ("arena_laps", 0.10, "matched", 0.95, ("slam", "fej", "ideal")),
-}
-#: The seeds of chapter 06's studies.
-CH06_SEEDS = tuple(range(1000, 1100))
-
-
-def load_ch06_studies(path=None) -> dict:
-    """The stored studies of :data:`CH06_STUDIES` (``data/studies/ch06_consistency.json``)."""
-    import json
-    from pathlib import Path
-
-    from .worlds import DATA_DIR
-
-    p = Path(path) if path is not None else DATA_DIR / "studies" / "ch06_consistency.json"
-    if not p.is_file():
-        raise ValueError(f"path: {p} does not exist; run `make studies` to make it")
-    return json.loads(p.read_text(encoding="utf-8"))
-
-
-def nominal_Q(scenario_name: str = "arena_loop", seed: int = 1000) -> np.ndarray:
-    """The wheel-speed covariance of the nominal slip (sigma_wheel = 0.02) of a scenario."""
-    from .sim import scenario
-
-    return scenario(scenario_name, seed=seed, sigma_wheel=0.02).Q()
-
-
-def run_study(key: str, seeds: Iterable[int] = CH06_SEEDS, workers: int = 1
-              ) -> dict[str, NEESStudy]:
-    """One study of :data:`CH06_STUDIES` over ``seeds``: ``{method: NEESStudy}``."""
-    scenario_name, sigma, q, gate, methods = CH06_STUDIES[key]
-    Q = nominal_Q(scenario_name) if q == "nominal" else None
-    return monte_carlo(scenario_name, methods, seeds, sigma_wheel=sigma, gate=gate, Q=Q,
-                       workers=workers)
-
-
-def summarise(study: NEESStudy) -> dict:
-    """What chapter 06 keeps of a study (JSON-ready): the averages and each run's numbers.
-
-    ``avg`` and ``avg_heading`` are the Monte-Carlo averages on the time grid
-    ``t``; ``runs`` has, per seed, the run's time-mean pose and heading NEES,
-    its NEES at the last grid time, its ATE and its loop closure
-    (:class:`Reobservation`: ``d2``, ``status``, ``closed``, ``nees_before``).
-    """
-    runs = []
-    for i, seed in enumerate(study.seeds):
-        r = study.reobservations[i] if study.reobservations else None
-        runs.append({
-            "seed": int(seed), "mean_nees": float(np.mean(study.nees[i])),
-            "mean_nees_heading": float(np.mean(study.nees_heading[i])),
-            "final_nees": float(study.nees[i, -1]), "ate": float(study.ate[i]),
-            "closure_d2": None if r is None else _finite_or_none(r.d2),
-            "closure_status": None if r is None else r.status,
-            "closed": None if r is None else bool(r.closed),
-            "nees_before_closure": None if r is None else _finite_or_none(r.nees_before),
-        })
-    return {"method": study.method, "t": study.t.tolist(), "avg": study.average().tolist(),
-            "avg_heading": study.average(heading=True).tolist(), "runs": runs}
-
-
-def _finite_or_none(v: float):
-    return float(v) if np.isfinite(v) else None
-
-
-# --------------------------------------------------------------------------- observability
-@dataclass
-class Observability:
-    """The linearised system a SLAM filter used over a stretch of a run (chapter 06).
-
-    Attributes
-    ----------
-    singular_values : numpy.ndarray
-        Of the observability matrix ``O`` (rows ``H_k Phi(k, 0)`` of every fused
-        reading, columns the state at the end, landmarks in state order), in
-        decreasing order, divided by the largest.
-    rotation : numpy.ndarray
-        ``|H_k Phi(k, 0) N_rot|`` for every fused reading (N_rot: a rotation of
-        the robot's start pose and of every landmark's first estimate about the
-        origin), divided by ``|H_k|``: zero when the filter's linearisation keeps
-        the rotation unobservable.
-    translation : numpy.ndarray
-        The same for a translation of everything along x (zero for every filter).
-    n_state : int
-        The state size at the end.
-    """
-
-    singular_values: np.ndarray
-    rotation: np.ndarray
-    translation: np.ndarray
-    n_state: int
-
-    def null_dimension(self, tol: float = 1e-9) -> int:
-        """Directions the linearised system cannot observe (singular values below ``tol``)."""
-        return int(np.sum(self.singular_values < tol))
-
-
-def observability(filter_cls, run: Run, t_end: float = 20.0, **kwargs) -> Observability:
-    """Record the Jacobians a SLAM filter (``EKFSLAM``, ``FEJEKFSLAM``) uses on ``run`` up to
-    ``t_end`` and build its observability matrix (chapter 06's numerical check).
-
-    ``Phi(k, 0)`` is the product of the robot's ``A`` since the start (landmarks
-    do not move); ``H_k`` are the Jacobians the filter fused with (for FEJ its
-    first-estimate ones). Only the landmarks that were fused at least once
-    are kept (a landmark seen only when it was added constrains nothing).
-    """
-    filt = ex.make_filter(filter_cls, run, Q=kwargs.get("Q"), gate=kwargs.get("gate", 0.95))
-    phi = [np.eye(3)]
-    rows = []                                   # (Phi so far, slots, Hp, Hl)
-    predict_cov, fuse = filt._predict_cov, filt._fuse
-    jac = getattr(filt, "_linearisation_jacobians", None)
-
-    def spy_predict(A, W):
-        phi.append(A @ phi[-1])
-        predict_cov(A, W)
-
-    def spy_fuse(slots, Hp, Hl, y, R):
-        Hp_u, Hl_u = jac(slots, Hp, Hl) if jac is not None else (Hp, Hl)
-        rows.append((phi[-1].copy(), slots.copy(), Hp_u.copy(), Hl_u.copy()))
-        return fuse(slots, Hp, Hl, y, R)
-
-    first: dict[int, np.ndarray] = {}          # slot -> where the landmark was put
-    add = filt._add_landmark
-
-    def spy_add(marker_id, z, R):
-        add(marker_id, z, R)
-        slot = filt.landmark_index(marker_id)
-        first[slot] = filt._x[slot:slot + 2].copy()
-
-    filt._predict_cov, filt._fuse, filt._add_landmark = spy_predict, spy_fuse, spy_add
-    ex.run_filter(run, filt, max_time=t_end)
-    fused = sorted({int(s) for _, slots, _, _ in rows for s in slots})
-    col = {s: 3 + 2 * j for j, s in enumerate(fused)}
-    n = 3 + 2 * len(fused)
-    O, rot, tra = [], [], []
-    x0 = run.start_pose
-    for Phi, slots, Hp, Hl in rows:
-        for j, s in enumerate(slots):
-            H = np.zeros((2, n))
-            H[:, :3] = Hp[j] @ Phi
-            H[:, col[int(s)]:col[int(s)] + 2] = Hl[j]
-            O.append(H)
-            m0 = first[int(s)]
-            n_rot = np.zeros(n)
-            n_rot[:3] = [-x0[1], x0[0], 1.0]
-            n_rot[col[int(s)]:col[int(s)] + 2] = [-m0[1], m0[0]]
-            n_tra = np.zeros(n)
-            n_tra[0] = 1.0
-            n_tra[col[int(s)]] = 1.0
-            scale = np.linalg.norm(H)
-            rot.append(np.linalg.norm(H @ n_rot) / scale)
-            tra.append(np.linalg.norm(H @ n_tra) / scale)
-    O = np.vstack(O)
-    sv = np.linalg.svd(O, compute_uv=False)
-    return Observability(sv / sv[0], np.array(rot), np.array(tra), n)
-
-
-
-def summary_numbers(summary: dict, prob: float = 0.95) -> dict:
-    """The numbers chapter 06 tabulates from one stored study of one filter (:func:`summarise`).
-
-    ``avg_mean`` is the time mean of the Monte-Carlo average pose NEES,
-    ``avg_final`` the average at the last grid time, ``inside`` the share of
-    grid times at which the average lies in the per-instant band
-    ``chi2_band(3, N, prob)`` (``band``), ``heading_mean`` the time mean of the
-    average heading NEES, ``ate`` the mean ATE (m); for the SLAM filters
-    ``closed`` is the share of runs whose loop closure was accepted (at once or
-    later), ``first_rejected`` the share whose first re-observation was
-    rejected, ``nees_before`` the mean and ``nees_before_median`` the median
-    pose NEES just before that first re-observation, ``d2_median`` its median
-    squared Mahalanobis distance.
-    """
-    runs = summary["runs"]
-    n = len(runs)
-    avg = np.asarray(summary["avg"], dtype=float)
-    lo, hi = chi2_band(3, n, prob)
-    out = {"n_runs": n, "band": (lo, hi), "avg_mean": float(avg.mean()),
-           "avg_final": float(avg[-1]), "inside": float(np.mean((avg > lo) & (avg < hi))),
-           "heading_mean": float(np.mean(summary["avg_heading"])),
-           "ate": float(np.mean([r["ate"] for r in runs]))}
-    if runs and runs[0]["closed"] is not None:
-        nb = np.array([np.nan if r["nees_before_closure"] is None else r["nees_before_closure"]
-                       for r in runs])
-        d2 = np.array([np.nan if r["closure_d2"] is None else r["closure_d2"] for r in runs])
-        out.update(closed=float(np.mean([r["closed"] for r in runs])),
-                   first_rejected=float(np.mean([r["closure_status"] == "rejected"
-                                                 for r in runs])),
-                   nees_before=float(np.nanmean(nb)), nees_before_median=float(np.nanmedian(nb)),
-                   d2_median=float(np.nanmedian(d2)))
-    return out

@@ -12,6 +12,7 @@ import pytest
 
 from slamlib import runner as ex
 from slamlib import studies
+from slamlib.course import studies_ch06
 from slamlib.metrics import chi2_band
 from slamlib.models import wrap_angle
 from slamlib.sensors import AnalyticMarkerSensor
@@ -86,7 +87,7 @@ def test_monte_carlo_equals_runs_made_by_hand():
 
 
 def test_density_sweep_equals_a_run_made_by_hand():
-    rows = studies.density_sweep((6,), seeds=(3,))
+    rows = studies_ch06.density_sweep((6,), seeds=(3,))
     assert len(rows) == 1
     r = rows[0]
     world = random_world(extent=(0.0, 6.0, -3.0, 3.0), count=6, seed=3)
@@ -135,7 +136,7 @@ def test_landmark_placement_equals_the_filter_when_added():
     run = scenario("arena_loop")
     world = run.world()
     tr = ex.slam(run)
-    rows = studies.landmark_placement(tr, world)
+    rows = studies_ch06.landmark_placement(tr, world)
     assert [p.marker_id for p in rows] == tr.filter.landmark_ids
     true = world.landmarks()
     for p in rows[3:6]:

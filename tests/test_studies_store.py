@@ -8,21 +8,22 @@ import numpy as np
 import pytest
 
 from slamlib import studies
+from slamlib.course import studies_ch06
 
-STORED = studies.load_ch06_studies()
+STORED = studies_ch06.load_ch06_studies()
 
 
 def test_the_file_describes_the_studies_of_the_code():
-    assert STORED["seeds"] == list(studies.CH06_SEEDS)
-    assert set(STORED["studies"]) == set(studies.CH06_STUDIES)
-    for key, (scenario, sigma, q, gate, methods) in studies.CH06_STUDIES.items():
+    assert STORED["seeds"] == list(studies_ch06.CH06_SEEDS)
+    assert set(STORED["studies"]) == set(studies_ch06.CH06_STUDIES)
+    for key, (scenario, sigma, q, gate, methods) in studies_ch06.CH06_STUDIES.items():
         st = STORED["studies"][key]
         assert (st["scenario"], st["sigma_wheel"], st["Q"], st["gate"]) == (scenario, sigma, q,
                                                                              gate)
         assert tuple(st["methods"]) == methods
         for m in methods:
             s = st["methods"][m]
-            assert len(s["runs"]) == len(studies.CH06_SEEDS)
+            assert len(s["runs"]) == len(studies_ch06.CH06_SEEDS)
             assert len(s["t"]) == len(s["avg"]) == len(s["avg_heading"])
             # the stored average is the mean of the runs' curves: its time mean is the mean
             # of the runs' time means
@@ -36,12 +37,12 @@ def test_the_file_describes_the_studies_of_the_code():
 def test_a_sample_of_the_stored_runs_is_recomputed_exactly(key, seeds):
     stored = STORED["studies"][key]["methods"]
     t_end = stored["slam"]["t"][-1]
-    scenario, sigma, q, gate, methods = studies.CH06_STUDIES[key]
-    Q = studies.nominal_Q(scenario) if q == "nominal" else None
+    scenario, sigma, q, gate, methods = studies_ch06.CH06_STUDIES[key]
+    Q = studies_ch06.nominal_Q(scenario) if q == "nominal" else None
     res = studies.monte_carlo(scenario, methods, seeds, sigma_wheel=sigma, gate=gate, Q=Q,
                               t_end=t_end)
     for m in methods:
-        mine = studies.summarise(res[m])
+        mine = studies_ch06.summarise(res[m])
         assert mine["t"] == stored[m]["t"]
         for seed, run in zip(seeds, mine["runs"]):
-            assert run == stored[m]["runs"][seed - studies.CH06_SEEDS[0]], (m, seed)
+            assert run == stored[m]["runs"][seed - studies_ch06.CH06_SEEDS[0]], (m, seed)

@@ -4,7 +4,7 @@ Usage:
     python tools/make_studies.py [--workers 2]          # rewrite the file
     python tools/make_studies.py --check [--workers 2]  # exit 1 if it would change
 
-Each study of ``slamlib.studies.CH06_STUDIES`` is run over the seeds
+Each study of ``slamlib.course.studies_ch06.CH06_STUDIES`` is run over the seeds
 ``CH06_SEEDS`` (100 seeded runs); the same code gives the same bytes, whatever
 the number of workers (``tests/test_studies_store.py`` recomputes a sample).
 Chapter 06 loads the file: its 100-seed tables would take minutes to run live.
@@ -17,7 +17,7 @@ import sys
 import time
 from pathlib import Path
 
-from slamlib.studies import CH06_SEEDS, CH06_STUDIES, run_study, summarise
+from slamlib.course.studies_ch06 import CH06_SEEDS, CH06_STUDIES, run_study, summarise
 
 ROOT = Path(__file__).resolve().parents[1]
 OUT = ROOT / "data" / "studies" / "ch06_consistency.json"

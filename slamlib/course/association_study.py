@@ -15,7 +15,6 @@
 from __future__ import annotations
 
 import json
-from concurrent.futures import ProcessPoolExecutor
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -26,6 +25,7 @@ from ..confirmation import ConfirmedSLAM
 from ..ekf import EKFSLAM
 from ..metrics import ate
 from ..runs import Run
+from ..studies import map_jobs
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
@@ -187,10 +187,7 @@ def _row(args):
 def study(settings: dict = STUDY_SETTINGS, workers: int = 2) -> list[dict]:
     """Every (seed, method) of ``settings``, in that order (the same for any ``workers``)."""
     jobs = [(s, m, settings) for s in settings["seeds"] for m in settings["methods"]]
-    if workers <= 1:
-        return [_row(j) for j in jobs]
-    with ProcessPoolExecutor(max_workers=workers) as pool:
-        return list(pool.map(_row, jobs, chunksize=4))
+    return map_jobs(_row, jobs, max(int(workers), 1))
 
 
 def save_study(rows: list[dict], path=STUDY_PATH, settings: dict = STUDY_SETTINGS) -> None:

@@ -27,7 +27,15 @@ import numpy as np  # noqa: E402
 
 from .. import runner  # noqa: E402
 from ..runs import load_run  # noqa: E402
-from . import plots, plots_ch02, plots_ch05, plots_ch06, plots_ch07, plots_ch08  # noqa: E402
+from . import (  # noqa: E402
+    plots,
+    plots_ch02,
+    plots_ch05,
+    plots_ch06,
+    plots_ch07,
+    plots_ch08,
+    studies_ch06,  # noqa: E402
+)
 
 __all__ = ["FIGURES", "make_figures", "save_figure", "main"]
 
@@ -196,8 +204,7 @@ def course_nees_monte_carlo(ctx: _Context):
 
 def course_nees_fej(ctx: _Context):
     """Chapter 06: EKF SLAM, the ideal EKF and FEJ over 100 seeds (stored by ``make studies``)."""
-    from .. import studies
-    stored = studies.load_ch06_studies()
+    stored = studies_ch06.load_ch06_studies()
     names = {"slam": "EKF SLAM", "ideal": "ideal (Jacobians at the truth)", "fej": "FEJ EKF SLAM"}
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plots.DPI)
     for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10"),

@@ -33,7 +33,6 @@ from __future__ import annotations
 
 import argparse
 import json
-from concurrent.futures import ProcessPoolExecutor
 from pathlib import Path
 
 import numpy as np
@@ -42,7 +41,7 @@ from .. import graph
 from .. import runner as ex
 from ..metrics import chi2_band, nees, pose_error
 from ..sim import scenario
-from ..studies import sample_trace
+from ..studies import map_jobs, sample_trace
 from ..worlds import DATA_DIR
 
 __all__ = ["CASES", "SEEDS", "GRID", "ESTIMATES", "STUDY_FILE", "FORMAT", "run_seed", "study",
@@ -126,11 +125,7 @@ def _job(args):
 def study(seeds=SEEDS, cases=tuple(CASES), workers: int = 2) -> dict:
     """Every case and seed, in a fixed order (the result does not depend on ``workers``)."""
     jobs = [(c, int(s)) for c in cases for s in seeds]
-    if workers > 1:
-        with ProcessPoolExecutor(max_workers=workers) as pool:
-            rows = list(pool.map(_job, jobs, chunksize=4))
-    else:
-        rows = [_job(j) for j in jobs]
+    rows = map_jobs(_job, jobs, max(int(workers), 1))
     out = {"format": FORMAT, "scenario": SCENARIO, "seeds": [int(s) for s in seeds],
            "grid": _r(GRID), "cases": {}}
     for c in cases:

@@ -20,7 +20,7 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
     ----------
     curves : dict label -> (t, average pose NEES, average heading NEES)
         One curve per filter (arrays of the same length T), e.g. from
-        :func:`slamlib.studies.summarise`'s ``t``, ``avg``, ``avg_heading``.
+        :func:`slamlib.course.studies_ch06.summarise`'s ``t``, ``avg``, ``avg_heading``.
     n_runs : int
         Runs in each average (the band is :func:`slamlib.metrics.chi2_band`
         ``(dof, n_runs, prob)``, valid at each instant).
