@@ -11,7 +11,7 @@ The chapters' exercise checkers and figures, one module per chapter, in chapter 
 - ``plots``              the figure primitives every chapter shares (top views z-down seen from
                          above, ellipses, a filter's trace and its errors)
 - ``plots_ch00`` ... ``plots_ch11``
-                         each chapter's figures (none for 01, whose figures are all primitives)
+                         each chapter's figures
 - ``widgets``            interactive figures that also leave their default figure as an output
 - ``figures``            ``python -m slamlib.course.figures OUT``: every figure as files
 - ``errata``             the report's equations as printed, and the checks that expose its errors

@@ -1,0 +1,30 @@
+"""Chapter 01's figure of the encoders: raw counters that wrap, and the distances after unwrapping.
+"""
+
+from __future__ import annotations
+
+import matplotlib.pyplot as plt
+import numpy as np
+
+from ..models import KOBUKI_TICKS_PER_REV, KOBUKI_WHEEL_RADIUS, tick_difference
+
+__all__ = ["plot_encoder_counters"]
+
+
+def plot_encoder_counters(run):
+    """The run's 16-bit counters against time (they wrap) and each wheel's rim distance from
+    the increments that :func:`slamlib.models.tick_difference` unwraps. Returns the figure."""
+    tick = 2 * np.pi * KOBUKI_WHEEL_RADIUS / KOBUKI_TICKS_PER_REV
+    fig, axes = plt.subplots(1, 2, figsize=(8, 3), dpi=80)
+    axes[0].plot(run.enc_t, run.ticks_R, label="right counter")
+    axes[0].plot(run.enc_t, run.ticks_L, label="left counter")
+    axes[0].set(xlabel="t (s)", ylabel="raw counter", title="16-bit counters wrap")
+    axes[0].legend(fontsize=8)
+    dR = tick_difference(run.ticks_R[1:], run.ticks_R[:-1])
+    dL = tick_difference(run.ticks_L[1:], run.ticks_L[:-1])
+    axes[1].plot(run.enc_t[1:], np.cumsum(dR) * tick, label="right wheel")
+    axes[1].plot(run.enc_t[1:], np.cumsum(dL) * tick, label="left wheel")
+    axes[1].set(xlabel="t (s)", ylabel="rim distance (m)", title="after tick_difference")
+    axes[1].legend(fontsize=8)
+    fig.tight_layout()
+    return fig
