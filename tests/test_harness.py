@@ -77,3 +77,14 @@ def test_attempt_prints_the_verdict_and_returns_none_unless_there_is_an_answer(c
                     "Fix it, then run this cell again."]
     said.clear()
     assert harness.attempt(lambda x: 2 * x, 3.0, say=said.append) == 6.0 and said == []
+
+
+def test_vector_answer_takes_vectors_and_says_what_is_wrong():
+    from slamlib.course.harness import vector_answer
+
+    got, problem = vector_answer([1, 2.5], 2, "[rho, bearing]")
+    assert problem is None and got.tolist() == [1.0, 2.5]
+    got, problem = vector_answer([1.0, 2.0, 3.0], 2, "[rho, bearing]")
+    assert got is None and problem == "expected [rho, bearing] of shape (2,), got 3 value(s)"
+    got, problem = vector_answer("ab", 2, "a pair")
+    assert got is None and problem.startswith("expected a pair, got 'ab'")

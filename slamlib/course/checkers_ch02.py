@@ -8,7 +8,7 @@ from __future__ import annotations
 import numpy as np
 
 from ..models import wrap_angle
-from .harness import attempt, name_of, printer
+from .harness import attempt, name_of, printer, vector_answer
 
 __all__ = ["check_camera_to_range_bearing"]
 
@@ -65,13 +65,9 @@ def check_camera_to_range_bearing(fn, n_points: int = 8, seed: int = 2,
         out = attempt(fn, p.copy(), T.copy(), say=say)
         if out is None:
             return False
-        try:
-            got = np.asarray(out, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            say(f"{name}: expected [rho, bearing], got {out!r}")
-            return False
-        if got.shape != (2,):
-            say(f"{name}: expected [rho, bearing] of shape (2,), got shape {got.shape}")
+        got, problem = vector_answer(out, 2, "[rho, bearing]")
+        if problem:
+            say(f"{name}: {problem}")
             return False
         want = camera_to_range_bearing(p, T)
         if np.all(np.isfinite(got)) and same(got, want):

@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .harness import attempt, name_of, printer
+from .harness import attempt, name_of, printer, vector_answer
 
 __all__ = ["check_wheel_speeds_from_commands"]
 
@@ -37,13 +37,9 @@ def check_wheel_speeds_from_commands(fn, n_points: int = 12, seed: int = 10,
         out = attempt(fn, v, w, b, say=say)
         if out is None:
             return False
-        try:
-            got = np.asarray(out, dtype=float).reshape(-1)
-        except (TypeError, ValueError):
-            say(f"{name}: expected a pair [V_R, V_L] of numbers, got {out!r}.")
-            return False
-        if got.shape != (2,):
-            say(f"{name}: expected a pair [V_R, V_L], got {got.size} value(s).")
+        got, problem = vector_answer(out, 2, "a pair [V_R, V_L]")
+        if problem:
+            say(f"{name}: {problem}")
             return False
         ref = _reference(v, w, b)
         if np.allclose(got, ref, atol=1e-12, rtol=1e-9):

@@ -30,6 +30,7 @@ from collections.abc import Callable, Iterable, Mapping
 import numpy as np
 
 __all__ = ["call", "attempt", "printer", "not_ready", "name_of", "one_number", "shape_problem",
+           "vector_answer",
            "matching_mistakes"]
 
 
@@ -92,6 +93,18 @@ def shape_problem(what: str, value, shape: tuple[int, ...]) -> str | None:
     if arr.shape != shape:
         return f"{what}: expected shape {shape}, got shape {arr.shape}"
     return None
+
+
+def vector_answer(value, size: int, what: str) -> tuple[np.ndarray | None, str | None]:
+    """A student's answer as a float vector of ``size`` entries: ``(array, None)``, or
+    ``(None, the sentence that says why not)`` (``what`` names the expected answer)."""
+    try:
+        got = np.asarray(value, dtype=float).reshape(-1)
+    except (TypeError, ValueError):
+        return None, f"expected {what}, got {value!r}"
+    if got.shape != (size,):
+        return None, f"expected {what} of shape ({size},), got {got.size} value(s)"
+    return got, None
 
 
 def matching_mistakes(mistakes: Mapping[str, Callable[..., object]], answers: Iterable,
