@@ -502,8 +502,10 @@ class _EKFBase:
         readings of a :class:`~slamlib.runs.Run` (checked when the run was made)
         and the covariances of the run's own sensor model.
         """
+        # steps 1 and 2, association by id and each reading's gate at the prior: nothing changes
         report, fuse = self._gate_ids(ids, z, Rk)
         # -------- everything is checked: from here on the state changes
+        # step 3: the accepted readings in ONE joint update
         joint_nis = float("nan")
         if fuse is not None:
             slots_a, Hp, Hl, y, Rg, acc = fuse
@@ -512,6 +514,7 @@ class _EKFBase:
             else:
                 joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
             self._x[2] = _wrap_scalar(float(self._x[2]))
+        # step 4: ids never seen before join the state, from the updated pose (inverse observation)
         for i in np.flatnonzero(report.new).tolist():
             self._add_landmark(int(ids[i]), z[i], Rk[i])
         return replace(report, joint_nis=joint_nis)
@@ -525,6 +528,7 @@ class _EKFBase:
         status = [""] * k
         gated, positions, slots = [], [], []
         first_new: dict[int, int] = {}
+        # step 1, association: each id is looked up (a mapped landmark, new, or unknown)
         for i in range(k):
             mid = int(ids[i])
             found = self._lookup(mid)
@@ -557,6 +561,7 @@ class _EKFBase:
                     status[i] = "degenerate"
                 g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
         if gated and g.size:
+            # step 2, the gate: y_i = z_i - h_i, S_i = H_i P H_i^T + R_i, d2_i = y_i^T S_i^-1 y_i
             y = z[g] - h
             y[:, 1] = _wrap_array(y[:, 1])
             Rg = np.ascontiguousarray(Rk[g])
