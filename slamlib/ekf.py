@@ -128,6 +128,7 @@ from .models import (
     _wrap_scalar,
     inverse_observation_jacobians,
     inverse_observe,
+    motion_terms,
     observe_landmarks,
     wrap_angle,
 )
@@ -397,15 +398,13 @@ class _EKFBase:
         """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
         if (getattr(self.motion_step, "__func__", None) is _EKFBase.motion_step
                 and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov):
-            # The course's motion model, unchanged hooks: f, A, W as scalars (no 3x3 arrays).
-            # The same equations as models.motion_model / motion_jacobians (chapter 01).
+            # The course's motion model, unchanged hooks: f, A, W as scalars (no 3x3 arrays),
+            # from models.motion_terms (chapter 01), as motion_model and motion_jacobians.
             x, y, th = self._x[:3].tolist()
-            uR, uL = u.tolist()
-            v, w = 0.5 * (uR + uL), (uL - uR) / self.wheel_base
-            c, s = math.cos(th), math.sin(th)
-            self._x[:3] = (x + v * c * dt, y + v * s * dt, _wrap_scalar(th + w * dt))
-            hc, hs, g = 0.5 * c * dt, 0.5 * s * dt, dt / self.wheel_base
-            self._predict_shear(-v * s * dt, v * c * dt, (hc, hc, hs, hs, -g, g))
+            dx, dy, dth, hc, hs, g = motion_terms(th, float(u[0]), float(u[1]), dt,
+                                                  self.wheel_base)
+            self._x[:3] = (x + dx, y + dy, _wrap_scalar(th + dth))
+            self._predict_shear(-dy, dx, (hc, hc, hs, hs, -g, g))
             return
         new_pose, A, W = self.motion_step(self._x[:3], u, dt)
         self._predict_cov(A, W)

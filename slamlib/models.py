@@ -30,7 +30,7 @@ from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 __all__ = [
     "KOBUKI_WHEEL_BASE", "KOBUKI_WHEEL_RADIUS", "KOBUKI_TICKS_PER_REV",
     "wrap_angle", "tick_difference", "wheel_speeds", "wheel_speeds_from_ticks",
-    "body_velocity", "motion_model", "motion_jacobians", "motion_model_batch",
+    "body_velocity", "motion_model", "motion_jacobians", "motion_terms", "motion_model_batch",
     "observe", "observation_jacobians", "observe_landmarks",
     "polar_to_cartesian", "polar_to_cartesian_jacobian",
     "compose_point", "compose_point_jacobians",
@@ -215,28 +215,51 @@ def motion_model(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.n
 
 def _motion_model(x: np.ndarray, u: np.ndarray, dt: float, b: float) -> np.ndarray:
     """:func:`motion_model` on checked arguments (the filters' predict checks them once)."""
-    v, w = 0.5 * (u[0] + u[1]), (u[1] - u[0]) / b
-    c, s = np.cos(x[2]), np.sin(x[2])
-    return np.array([x[0] + v * c * dt, x[1] + v * s * dt, _wrap_scalar(float(x[2] + w * dt))])
+    dx, dy, dth, *_ = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
+    return np.array([x[0] + dx, x[1] + dy, _wrap_scalar(float(x[2]) + dth)])
+
+
+def motion_terms(theta: float, V_R: float, V_L: float, dt: float, b: float
+                 ) -> tuple[float, float, float, float, float, float]:
+    """The scalars of the motion model and its Jacobians (chapter 01), computed once.
+
+    With ``V = (V_R + V_L)/2``, ``w = (V_L - V_R)/b`` (z-down) and the heading
+    ``theta`` at the start of the step, returns ``(dx, dy, dtheta, hc, hs, g)``:
+
+    - the step ``dx = V cos(theta) dt``, ``dy = V sin(theta) dt``, ``dtheta = w dt``
+      (so ``f(x) = x + [dx, dy, dtheta]``, heading wrapped);
+    - ``A = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]]``;
+    - ``W = [[hc, hc], [hs, hs], [-g, g]]`` with ``hc = cos(theta) dt/2``,
+      ``hs = sin(theta) dt/2``, ``g = dt/b``.
+
+    The one place of these formulas: :func:`motion_model`, :func:`motion_jacobians`
+    and the filters' prediction (``slamlib.ekf``) all take them from here.
+    """
+    v, w = 0.5 * (V_R + V_L), (V_L - V_R) / b
+    c, s = math.cos(theta), math.sin(theta)
+    return v * c * dt, v * s * dt, w * dt, 0.5 * c * dt, 0.5 * s * dt, dt / b
+
+
+def _jacobian_matrices(dx: float, dy: float, hc: float, hs: float, g: float
+                       ) -> tuple[np.ndarray, np.ndarray]:
+    """``(A, W)`` as arrays from :func:`motion_terms`."""
+    A = np.array([[1.0, 0.0, -dy],
+                  [0.0, 1.0, dx],
+                  [0.0, 0.0, 1.0]])
+    W = np.array([[hc, hc],
+                  [hs, hs],
+                  [-g, g]])
+    return A, W
 
 
 def _motion_step(x: np.ndarray, u: np.ndarray, dt: float, b: float
                  ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(motion_model, *motion_jacobians)`` on checked arguments, the trigonometry done once.
-
-    The same operations as :func:`_motion_model` and :func:`_motion_jacobians`,
-    so the results are bit for bit those of the two public functions.
+    """``(motion_model, *motion_jacobians)`` on checked arguments, the trigonometry done once
+    (:func:`motion_terms`), so the results are bit for bit those of the two public functions.
     """
-    v, w = 0.5 * (u[0] + u[1]), (u[1] - u[0]) / b
-    c, s = np.cos(x[2]), np.sin(x[2])
-    new = np.array([x[0] + v * c * dt, x[1] + v * s * dt, _wrap_scalar(float(x[2] + w * dt))])
-    A = np.array([[1.0, 0.0, -v * s * dt],
-                  [0.0, 1.0, v * c * dt],
-                  [0.0, 0.0, 1.0]])
-    W = np.array([[0.5 * c * dt, 0.5 * c * dt],
-                  [0.5 * s * dt, 0.5 * s * dt],
-                  [-dt / b, dt / b]])
-    return new, A, W
+    dx, dy, dth, hc, hs, g = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
+    new = np.array([x[0] + dx, x[1] + dy, _wrap_scalar(float(x[2]) + dth)])
+    return (new, *_jacobian_matrices(dx, dy, hc, hs, g))
 
 
 def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
@@ -266,16 +289,8 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
 def _motion_jacobians(x: np.ndarray, u: np.ndarray, dt: float, b: float
                       ) -> tuple[np.ndarray, np.ndarray]:
     """:func:`motion_jacobians` on checked arguments."""
-    v = 0.5 * (u[0] + u[1])
-    c, s = np.cos(x[2]), np.sin(x[2])
-    A = np.array([[1.0, 0.0, -v * s * dt],
-                  [0.0, 1.0, v * c * dt],
-                  [0.0, 0.0, 1.0]])
-    W = np.array([[0.5 * c * dt, 0.5 * c * dt],
-                  [0.5 * s * dt, 0.5 * s * dt],
-                  [-dt / b, dt / b]])
-    return A, W
-
+    dx, dy, _, hc, hs, g = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
+    return _jacobian_matrices(dx, dy, hc, hs, g)
 
 
 def motion_model_batch(X, U, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.ndarray:
