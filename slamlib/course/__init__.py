@@ -19,6 +19,7 @@ The chapters' exercise checkers and figures, one module per chapter, in chapter 
 Studies and chapter helpers:
 
 - ``evidence``           the 100-seed studies behind chapters 02, 03, 05, 07 (``data/evidence``)
+- ``stored``             reading the stored studies (one loader, naming the make target)
 - ``studies_ch06``       chapter 06's studies: marker density, the stored Monte-Carlo, observability
 - ``association_study``  chapter 09's study of ids / NN / JCBB (``data/studies``)
 - ``ch10``               chapter 10's helpers: noise identified from the MRCLAM logs, logs loaded

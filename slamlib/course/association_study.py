@@ -26,6 +26,7 @@ from ..ekf import EKFSLAM
 from ..metrics import ate
 from ..runs import Run
 from ..studies import map_jobs
+from .stored import load_stored
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
@@ -200,7 +201,7 @@ def save_study(rows: list[dict], path=STUDY_PATH, settings: dict = STUDY_SETTING
 
 def load_study(path=STUDY_PATH) -> tuple[dict, list[dict]]:
     """``(settings, rows)`` of a stored study."""
-    d = json.loads(Path(path).read_text(encoding="utf-8"))
+    d = load_stored(path, "association-study")
     return d["settings"], d["rows"]
 
 

@@ -47,6 +47,7 @@ from ..runner import DEFAULT_P0, reading_covariances, run_filter
 from ..runs import CameraRows, Run
 from ..studies import sample_trace
 from ..worlds import DATA_DIR
+from .stored import load_stored
 
 __all__ = ["EVIDENCE_DIR", "FORMAT", "STUDIES", "SEEDS", "GRID_STEP", "GATES",
            "CAMERA_VARIANTS", "CAMERA_LAGS", "ModelRLocalization", "decimate", "trace_stats",
@@ -363,12 +364,7 @@ def save_study(study: dict, folder=EVIDENCE_DIR) -> Path:
 def load_study(name: str, folder=EVIDENCE_DIR) -> dict:
     """Read ``folder/<name>.json``, checking its format, seeds and runs."""
     path = Path(folder) / f"{name}.json"
-    try:
-        d = json.loads(path.read_text())
-    except FileNotFoundError:
-        raise ValueError(f"name: no stored study {path} (run `make evidence`)") from None
-    except json.JSONDecodeError as err:
-        raise ValueError(f"{path}: not valid JSON (line {err.lineno}: {err.msg})") from None
+    d = load_stored(path, "evidence")
     if not isinstance(d, dict) or d.get("format") != FORMAT:
         raise ValueError(f"{path}: expected format {FORMAT!r}")
     if d.get("study") != name:

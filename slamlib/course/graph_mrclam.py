@@ -50,6 +50,7 @@ from ..metrics import nees, pose_error
 from ..models import observe, wrap_angle
 from ..worlds import DATA_DIR
 from . import ch10
+from .stored import load_stored
 
 __all__ = ["ESTIMATES", "FILTERED", "MAX_STEPS", "ROBUST_K", "STUDY_FILE", "FORMAT", "robot_traces",
            "node_samples", "whitened_residuals", "figures", "run_robot", "study", "save", "load",
@@ -246,10 +247,7 @@ class Study:
 
 def load(path=STUDY_FILE) -> Study:
     """The stored comparison (``make graph-mrclam`` writes it)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"path: {path} not found (make graph-mrclam writes it)")
-    return Study(json.loads(path.read_text(encoding="utf-8")))
+    return Study(load_stored(path, "graph-mrclam"))
 
 
 def main(argv=None) -> int:

@@ -43,6 +43,7 @@ from ..metrics import chi2_band, nees, pose_error
 from ..sim import scenario
 from ..studies import map_jobs, sample_trace
 from ..worlds import DATA_DIR
+from .stored import load_stored
 
 __all__ = ["CASES", "SEEDS", "GRID", "ESTIMATES", "STUDY_FILE", "FORMAT", "run_seed", "study",
            "save", "load", "Study", "main"]
@@ -208,10 +209,7 @@ class Study:
 
 def load(path=STUDY_FILE) -> Study:
     """The stored study (``make graph-study`` writes it)."""
-    path = Path(path)
-    if not path.is_file():
-        raise ValueError(f"path: {path} not found (make graph-study writes it)")
-    return Study(json.loads(path.read_text(encoding="utf-8")))
+    return Study(load_stored(path, "graph-study"))
 
 
 def main(argv=None) -> int:

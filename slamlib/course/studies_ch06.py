@@ -22,6 +22,7 @@ from .. import runner as ex
 from ..metrics import chi2_band
 from ..runs import Run
 from ..studies import NEESStudy, map_jobs, monte_carlo
+from .stored import load_stored
 
 __all__ = ["DENSITY_EXTENT", "random_loop_run", "DensityRow", "density_sweep",
            "LandmarkPlacement", "landmark_placement", "CH06_STUDIES", "CH06_SEEDS",
@@ -161,15 +162,10 @@ CH06_SEEDS = tuple(range(1000, 1100))
 
 def load_ch06_studies(path=None) -> dict:
     """The stored studies of :data:`CH06_STUDIES` (``data/studies/ch06_consistency.json``)."""
-    import json
-    from pathlib import Path
-
     from ..worlds import DATA_DIR
 
-    p = Path(path) if path is not None else DATA_DIR / "studies" / "ch06_consistency.json"
-    if not p.is_file():
-        raise ValueError(f"path: {p} does not exist; run `make studies` to make it")
-    return json.loads(p.read_text(encoding="utf-8"))
+    return load_stored(DATA_DIR / "studies" / "ch06_consistency.json" if path is None else path,
+                       "studies")
 
 
 def nominal_Q(scenario_name: str = "arena_loop", seed: int = 1000) -> np.ndarray:
