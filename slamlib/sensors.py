@@ -143,19 +143,19 @@ def visible_markers(world, pose, *, fov_half_angle: float = DEFAULT_FOV_HALF_ANG
     pose = as_vector("pose", pose, 3)
     if len(world.markers) == 0:
         return np.zeros(0, dtype=bool)
-    return _visible(_Geometry(world), pose, fov_half_angle, min_range, max_range,
-                    max_view_angle, camera_offset)
+    return _visible(_Geometry(world), pose[None, :], fov_half_angle, min_range, max_range,
+                    max_view_angle, camera_offset)[0]
 
 
-def _visible(geo: _Geometry, pose: np.ndarray, fov_half_angle, min_range, max_range,
+def _visible(geo: _Geometry, poses: np.ndarray, fov_half_angle, min_range, max_range,
              max_view_angle, camera_offset) -> np.ndarray:
-    """:func:`visible_markers` on a checked pose and a non-empty world's arrays."""
-    cam = _camera_positions(pose, camera_offset)
-    d = geo.positions - cam                        # camera -> marker
-    dist = np.hypot(d[:, 0], d[:, 1])
-    bearing_cam = _wrap_array(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
+    """:func:`visible_markers` from each of F checked poses (F, 3): flags (F, n)."""
+    cam = np.array([_camera_positions(p, camera_offset) for p in poses]).reshape(-1, 2)
+    d = geo.positions[None, :, :] - cam[:, None, :]        # camera -> marker
+    dist = np.hypot(d[:, :, 0], d[:, :, 1])
+    bearing_cam = _wrap_array(np.arctan2(d[:, :, 1], d[:, :, 0]) - poses[:, 2:3])
     safe = np.where(dist > 0.0, dist, 1.0)
-    cos_view = -(geo.normals * d).sum(axis=1) / safe   # normal . (camera - marker) / |.|
+    cos_view = -(geo.normals[None, :, :] * d).sum(axis=2) / safe   # normal . (camera - marker)
     return ((np.abs(bearing_cam) < fov_half_angle) & (dist >= min_range)
             & (dist <= max_range) & (dist > 0.0)
             & (cos_view > math.cos(max_view_angle)))
@@ -332,38 +332,24 @@ class AnalyticMarkerSensor:
 
     def _read_frames(self, geo: _Geometry, poses: list, times: list, latency: float,
                      rng: np.random.Generator) -> list[Observations]:
-        """:meth:`_read` of many frames at once (capture ``times``, ``poses``), in order.
+        """The frames seen from ``poses`` at the capture ``times``, in order, all at once.
 
-        The same draws in the same order and the same operations element by element
-        as one :meth:`_read` per frame, so the same numbers bit for bit
-        (``tests/test_fast_paths.py``); the geometry is computed for all frames at once.
+        Per frame the same draws in the same order (a fixed number per marker and
+        per frame), so reading a run's frames one by one (:meth:`_read`, as a
+        closed-loop run must) or all at the end gives the same numbers bit for bit
+        (``tests/test_fast_paths.py``).
         """
         F, n = len(poses), geo.n
-        if F == 0 or n == 0:
-            out = []
-            for p, t in zip(poses, times):
-                obs = self._read(geo, p, rng)
-                obs.t, obs.t_arrival = t, t + latency
-                out.append(obs)
-            return out
         E = np.empty((F, n, 2))
         U = np.empty((F, n, 3))
         V = np.empty((F, 5))
-        for f in range(F):                       # the draws of _read, frame after frame
+        for f in range(F):           # fixed draws: the noise of marker i does not depend on faults
             E[f] = rng.standard_normal((n, 2))
             U[f] = rng.random((n, 3))
             V[f] = rng.random(5)
-        P = np.array(poses, dtype=float)
-        cam = np.array([_camera_positions(p, self.camera_offset) for p in poses])
-        # _visible, for every frame
-        d = geo.positions[None, :, :] - cam[:, None, :]
-        dist = np.hypot(d[:, :, 0], d[:, :, 1])
-        bearing_cam = _wrap_array(np.arctan2(d[:, :, 1], d[:, :, 0]) - P[:, 2:3])
-        safe = np.where(dist > 0.0, dist, 1.0)
-        cos_view = -(geo.normals[None, :, :] * d).sum(axis=2) / safe
-        seen = ((np.abs(bearing_cam) < self.fov_half_angle) & (dist >= self.min_range)
-                & (dist <= self.max_range) & (dist > 0.0)
-                & (cos_view > math.cos(self.max_view_angle)))
+        P = np.array(poses, dtype=float).reshape(-1, 3)
+        seen = _visible(geo, P, self.fov_half_angle, self.min_range, self.max_range,
+                        self.max_view_angle, self.camera_offset)
         # the readings of every marker in every frame; only the seen ones are kept
         dx = geo.positions[None, :, 0] - P[:, 0:1]
         dy = geo.positions[None, :, 1] - P[:, 1:2]
@@ -405,23 +391,8 @@ class AnalyticMarkerSensor:
         return Observations(float("nan"), ids, z, true_ids, z_true)
 
     def _read(self, geo: _Geometry, pose: np.ndarray, rng: np.random.Generator) -> Observations:
-        """:meth:`read` on a checked pose and the world's arrays (the simulator's loop)."""
-        n = geo.n
-        # Fixed draws: the noise of marker i does not depend on the faults.
-        e = rng.standard_normal((n, 2))
-        u_fault = rng.random((n, 3))
-        u_out = rng.random(5)
-        seen = (_visible(geo, pose, self.fov_half_angle, self.min_range, self.max_range,
-                         self.max_view_angle, self.camera_offset) if n else np.zeros(0, bool))
-        idx = np.flatnonzero(seen)
-        ids_true = geo.ids[idx] if n else np.zeros(0, np.int64)
-        p = geo.positions[idx] if n else np.zeros((0, 2))
-        dx, dy = p[:, 0] - pose[0], p[:, 1] - pose[1]
-        rho_t = np.hypot(dx, dy)
-        beta_t = _wrap_array(np.arctan2(dy, dx) - pose[2]) if idx.size else np.zeros(0)
-        rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * e[idx, 0]
-        rho = np.maximum(rho, 0.0)
-        beta = _wrap_array(beta_t + self.sigma_bearing * e[idx, 1]) if idx.size else np.zeros(0)
-        world_ids = geo.ids.astype(np.int64) if n else np.zeros(0, np.int64)
-        return self._with_faults(idx, ids_true, np.column_stack([rho, beta]),
-                                 np.column_stack([rho_t, beta_t]), u_fault, u_out, world_ids)
+        """:meth:`read` on a checked pose and the world's arrays: :meth:`_read_frames` of one
+        frame, its times left unset."""
+        obs = self._read_frames(geo, [pose], [float("nan")], 0.0, rng)[0]
+        obs.t_arrival = None
+        return obs
