@@ -34,7 +34,6 @@ from .ekf import (
 from .metrics import ate, nees, pose_error
 from .models import wrap_angle
 from .runs import Run
-from .sensors import AnalyticMarkerSensor
 from .validate import as_reading_covariances
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
@@ -215,10 +214,9 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     # slamlib.ekf takes them without checking them again (R is still checked).
     checked = (isinstance(filt, _EKFBase) and type(filt).update is _EKFBase.update
                and filt.association == "ids")
-    # The analytic sensor's R is diagonal with variances >= its sigmas' squares: positive
-    # definite whenever both sigmas are positive, so its R needs no check either.
-    sensor_R_ok = (type(sensor) is AnalyticMarkerSensor and sensor.sigma_range0 > 0.0
-                   and sensor.sigma_range_per_m >= 0.0 and sensor.sigma_bearing > 0.0)
+    # a sensor model that guarantees a positive-definite R (see AnalyticMarkerSensor) needs no
+    # check of it per frame either
+    sensor_R_ok = getattr(sensor, "R_always_positive_definite", False) is True
     for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
         if max_time is not None and t > max_time:
             break
