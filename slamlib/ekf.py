@@ -118,17 +118,16 @@ from dataclasses import dataclass, replace
 
 import numpy as np
 
+from . import kernels as _kernels
 from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour, pair_covariance
 from .metrics import chi2_quantile
 from .models import (
     KOBUKI_WHEEL_BASE,
     _check_motion_args,
     _motion_step,
-    _wrap_array,
     _wrap_scalar,
     inverse_observation_jacobians,
     inverse_observe,
-    motion_terms,
     observe_landmarks,
     wrap_angle,
 )
@@ -396,19 +395,47 @@ class _EKFBase:
 
     def _predict(self, u: np.ndarray, dt: float) -> None:
         """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
-        if (getattr(self.motion_step, "__func__", None) is _EKFBase.motion_step
-                and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov):
+        if self._fast_predict():
             # The course's motion model, unchanged hooks: f, A, W as scalars (no 3x3 arrays),
-            # from models.motion_terms (chapter 01), as motion_model and motion_jacobians.
-            x, y, th = self._x[:3].tolist()
-            dx, dy, dth, hc, hs, g = motion_terms(th, float(u[0]), float(u[1]), dt,
-                                                  self.wheel_base)
-            self._x[:3] = (x + dx, y + dy, _wrap_scalar(th + dth))
-            self._predict_shear(-dy, dx, (hc, hc, hs, hs, -g, g))
+            # compiled (slamlib.kernels.predict_pose, from models.motion_terms, chapter 01).
+            a, b = _kernels.predict_pose(self._x, self._Pbuf, self.Q, float(u[0]), float(u[1]),
+                                         dt, self.wheel_base)
+            self._add_shear(a, b)
             return
         new_pose, A, W = self.motion_step(self._x[:3], u, dt)
         self._predict_cov(A, W)
         self._x[:3] = new_pose
+
+    def _fast_predict(self) -> bool:
+        """True when the prediction is the course's own (motion hooks unchanged): it then runs
+        compiled, and the runners may predict many steps in one call (:meth:`_predict_block`)."""
+        return (getattr(self.motion_step, "__func__", None) is _EKFBase.motion_step
+                and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov)
+
+    def _predict_block(self, u: np.ndarray, dt: np.ndarray
+                       ) -> tuple[np.ndarray, np.ndarray]:
+        """:meth:`predict` with each row of ``u`` (k, 2) and ``dt`` (k,), checked, in order;
+        returns the pose (k, 3) and ``P_rr`` (k, 3, 3) after each step (what a trace records).
+
+        The same arithmetic as k calls of :meth:`predict`, bit for bit
+        (:func:`slamlib.kernels.predict_poses`), in one call; only for the
+        course's own prediction (:meth:`_fast_predict`), else step by step.
+        """
+        k = dt.shape[0]
+        poses, covs = np.empty((k, 3)), np.empty((k, 3, 3))
+        if not self._fast_predict():
+            for i in range(k):
+                self._predict(u[i], float(dt[i]))
+                poses[i], covs[i] = self._x[:3], self._Pbuf[:3, :3]
+            return poses, covs
+        has = self._shear is not None
+        sa, sb = self._shear if has else (0.0, 0.0)
+        has, sa, sb = _kernels.predict_poses(
+            self._x, self._Pbuf, self.Q, np.ascontiguousarray(u, dtype=float),
+            np.ascontiguousarray(dt, dtype=float), self.wheel_base, has, sa, sb, poses, covs)
+        if has and self._n > 3:
+            self._shear = (sa, sb)
+        return poses, covs
 
     def motion_step(self, pose: np.ndarray, u: np.ndarray, dt: float
                     ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
@@ -561,11 +588,10 @@ class _EKFBase:
                 g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
         if gated and g.size:
             # step 2, the gate: y_i = z_i - h_i, S_i = H_i P H_i^T + R_i, d2_i = y_i^T S_i^-1 y_i
-            y = z[g] - h
-            y[:, 1] = _wrap_array(y[:, 1])
             Rg = np.ascontiguousarray(Rk[g])
             S = self._innovation_covs(slots_a, Hp, Hl, Rg)
-            d2g = _mahalanobis_2x2(y, S)
+            y, d2g = np.empty((g.size, 2)), np.empty(g.size)
+            _kernels.innovation_distances(z[g], np.ascontiguousarray(h, dtype=float), S, y, d2g)
             acc = np.ones(g.size, dtype=bool) if self.gate is None else d2g < self.threshold
             d2[g], innov[g], pred[g], S_all[g] = d2g, y, h, S
             accepted[g[acc]] = True
@@ -781,7 +807,8 @@ class _EKFBase:
     def _predict_shear(self, a: float, b: float, W: tuple) -> None:
         """The prediction's covariance for ``A = I + c e_3^T``, ``c = [a, b, 0]`` (chapter 01).
 
-        ``P_rr <- A P_rr A^T + W Q W^T`` element by element, exactly symmetric::
+        ``P_rr <- A P_rr A^T + W Q W^T`` element by element, exactly symmetric
+        (:func:`slamlib.kernels.shear_cov`)::
 
             (A P A^T)_ij = P_ij + c_i P_3j + P_i3 c_j + c_i c_j P_33
 
@@ -791,21 +818,11 @@ class _EKFBase:
         shear of ``P_rm``, applied (O(n)) when anything next reads ``P``
         (:attr:`_P`). ``W`` is the 3x2 noise Jacobian as 6 floats, row by row.
         """
-        P = self._Pbuf
-        (p00, p01, p02), (_, p11, p12), (_, _, p22) = P[:3, :3].tolist()
-        (q00, q01), (_, q11) = self.Q.tolist()
-        w00, w01, w10, w11, w20, w21 = W
-        # rows of W Q
-        r00, r01 = w00 * q00 + w01 * q01, w00 * q01 + w01 * q11
-        r10, r11 = w10 * q00 + w11 * q01, w10 * q01 + w11 * q11
-        r20, r21 = w20 * q00 + w21 * q01, w20 * q01 + w21 * q11
-        n00 = p00 + 2.0 * a * p02 + a * a * p22 + (r00 * w00 + r01 * w01)
-        n01 = p01 + a * p12 + b * p02 + a * b * p22 + (r00 * w10 + r01 * w11)
-        n11 = p11 + 2.0 * b * p12 + b * b * p22 + (r10 * w10 + r11 * w11)
-        n02 = p02 + a * p22 + (r00 * w20 + r01 * w21)
-        n12 = p12 + b * p22 + (r10 * w20 + r11 * w21)
-        n22 = p22 + (r20 * w20 + r21 * w21)
-        P[:3, :3] = ((n00, n01, n02), (n01, n11, n12), (n02, n12, n22))
+        _kernels.shear_cov(self._Pbuf, self.Q, a, b, *W)
+        self._add_shear(a, b)
+
+    def _add_shear(self, a: float, b: float) -> None:
+        """Compose the shear ``c = [a, b, 0]`` of one more prediction with the pending one."""
         if self._n > 3:
             if self._shear is None:
                 self._shear = (a, b)
@@ -838,12 +855,11 @@ class _EKFBase:
         return np.concatenate([Hp, Hl], axis=2)
 
     def _innovation_covs(self, slots, Hp, Hl, R) -> np.ndarray:
-        """``S_i = H_i P H_i^T + R_i`` from the 5x5 (or 3x3) blocks each reading touches."""
-        idx = self._blocks(slots)
-        Pb = self._P[idx[:, :, None], idx[:, None, :]]
-        Hb = self._reading_jacobians(slots, Hp, Hl)
-        S = Hb @ Pb @ Hb.transpose(0, 2, 1) + R
-        return 0.5 * (S + S.transpose(0, 2, 1))
+        """``S_i = H_i P H_i^T + R_i`` from the 5x5 (or 3x3) blocks each reading touches
+        (:func:`slamlib.kernels.innovation_covs`)."""
+        S = np.empty((slots.shape[0], 2, 2))
+        _kernels.innovation_covs(self._P, slots, _f64(Hp), _f64(Hl), _f64(R), S)
+        return S
 
     def _fuse(self, slots, Hp, Hl, y, R) -> float:
         """One joint update with m readings, O(n^2 m) in one pass over P; returns the joint NIS.
@@ -854,28 +870,20 @@ class _EKFBase:
             x <- x + W^T (L^-1 y),   P <- P - W^T W,   NIS = |L^-1 y|^2
 
         and ``P - W^T W = P - K S K^T`` is the Joseph form at this gain (see the
-        module docstring). Only W, 2m x n, is made; P changes in place (below
-        ``_IN_PLACE_FROM`` through one n x n product, see :func:`_subtract_symmetric_low_rank`).
+        module docstring). Only W, 2m x n, is made; P changes in place, in the
+        compiled kernel :func:`slamlib.kernels.fuse` up to ``n = _IN_PLACE_FROM``, above
+        by BLAS (:func:`_subtract_symmetric_low_rank`).
         """
-        P, n, m = self._P, self._n, slots.size
-        sl = slots.tolist()
-        lm = list(dict.fromkeys(s for s in sl if s >= 0))   # observed landmarks, once
-        cols = np.array([0, 1, 2] + [c for s in lm for c in (s, s + 1)])
-        where = {s: 3 + 2 * j for j, s in enumerate(lm)}
-        Hc = np.zeros((2 * m, cols.size))  # H restricted to those columns
-        for j, s in enumerate(sl):
-            Hc[2 * j:2 * j + 2, :3] = Hp[j]
-            if s >= 0:
-                c = where[s]
-                Hc[2 * j:2 * j + 2, c:c + 2] = Hl[j]
-        HP = Hc @ P[cols, :n]                        # H P = (P H^T)^T from rows of P, 2m x n
-        S = HP[:, cols] @ Hc.T + _block_diag(R)      # H P H^T + R, 2m x 2m
-        L = np.linalg.cholesky(0.5 * (S + S.T))      # S = L L^T
-        W = _solve_lower(L, HP)                      # L^-1 H P, 2m x n
-        v = _solve_lower(L, y.reshape(-1))           # L^-1 y, the whitened innovation
-        self._x[:n] += W.T @ v                       # K y
-        _subtract_symmetric_low_rank(P, n, W)        # P - K S K^T, in place
-        return float(v @ v)
+        P, n = self._P, self._n
+        ok, nis, W = _kernels.fuse(self._x, P, n, slots, _f64(Hp), _f64(Hl), _f64(y), _f64(R),
+                                   n <= _IN_PLACE_FROM)
+        if not ok:
+            raise np.linalg.LinAlgError(
+                "update: the joint innovation covariance S = H P H^T + R is not positive "
+                "definite (nothing was changed)")
+        if n > _IN_PLACE_FROM:
+            _subtract_symmetric_low_rank(P, n, W)    # P - K S K^T, in place (BLAS)
+        return float(nis)
 
     def _augment_cov(self, J1: np.ndarray, J2: np.ndarray, R: np.ndarray) -> None:
         """Fill the new landmark's rows and columns (storage already reserved): O(n)."""
@@ -887,25 +895,9 @@ class _EKFBase:
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
 
 
-def _mahalanobis_2x2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
-    """``d2_i = y_i^T S_i^-1 y_i`` of k innovations (k, 2) with symmetric S (k, 2, 2).
-
-    The inverse of a symmetric 2x2 matrix written out: ``S^-1 = [[s11, -s01],
-    [-s01, s00]] / (s00 s11 - s01^2)``.
-    """
-    s00, s01, s11 = S[:, 0, 0], S[:, 0, 1], S[:, 1, 1]
-    y0, y1 = y[:, 0], y[:, 1]
-    return (s11 * y0 * y0 - 2.0 * s01 * y0 * y1 + s00 * y1 * y1) / (s00 * s11 - s01 * s01)
-
-
-def _solve_lower(L: np.ndarray, b: np.ndarray) -> np.ndarray:
-    """``L^-1 b`` for the small (2m x 2m) lower-triangular L, with numpy's LAPACK.
-
-    (Not ``scipy.linalg.solve_triangular``: scipy's OpenBLAS is a second copy with its own
-    threads, which its dtrtrs wakes at any size; on a 2-core machine they then compete
-    with numpy's and an update of 10 landmarks took 1-2 ms instead of 0.2 ms.)
-    """
-    return np.linalg.solve(L, b)
+def _f64(a: np.ndarray) -> np.ndarray:
+    """``a`` as a C-contiguous float64 array (no copy if it is one): the kernels' input."""
+    return np.ascontiguousarray(a, dtype=np.float64)
 
 
 @functools.cache
@@ -994,15 +986,6 @@ def _subtract_symmetric_low_rank(P: np.ndarray, n: int, W: np.ndarray) -> None:
         # rows i0.. of P = Fortran columns i0.. of C (n x b) <- -A B^T + C, with
         # A = W^T (n x k) and B = rows i0.. of W^T (b x k), both of leading dimension n
         dgemm(b"N", b"T", nn, b, kk, alpha, w, nn, w + 8 * i0, nn, beta, p + 8 * i0 * ld, ldc)
-
-
-def _block_diag(R: np.ndarray) -> np.ndarray:
-    """Block-diagonal (2m x 2m) matrix from m 2x2 blocks."""
-    m = R.shape[0]
-    out = np.zeros((m, 2, m, 2))
-    j = np.arange(m)
-    out[j, :, j, :] = R
-    return out.reshape(2 * m, 2 * m)
 
 
 # --------------------------------------------------------------------------- the two filters

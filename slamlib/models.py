@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from . import kernels as _kernels
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 
 __all__ = [
@@ -219,25 +220,11 @@ def _motion_model(x: np.ndarray, u: np.ndarray, dt: float, b: float) -> np.ndarr
     return np.array([x[0] + dx, x[1] + dy, _wrap_scalar(float(x[2]) + dth)])
 
 
-def motion_terms(theta: float, V_R: float, V_L: float, dt: float, b: float
-                 ) -> tuple[float, float, float, float, float, float]:
-    """The scalars of the motion model and its Jacobians (chapter 01), computed once.
-
-    With ``V = (V_R + V_L)/2``, ``w = (V_L - V_R)/b`` (z-down) and the heading
-    ``theta`` at the start of the step, returns ``(dx, dy, dtheta, hc, hs, g)``:
-
-    - the step ``dx = V cos(theta) dt``, ``dy = V sin(theta) dt``, ``dtheta = w dt``
-      (so ``f(x) = x + [dx, dy, dtheta]``, heading wrapped);
-    - ``A = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]]``;
-    - ``W = [[hc, hc], [hs, hs], [-g, g]]`` with ``hc = cos(theta) dt/2``,
-      ``hs = sin(theta) dt/2``, ``g = dt/b``.
-
-    The one place of these formulas: :func:`motion_model`, :func:`motion_jacobians`
-    and the filters' prediction (``slamlib.ekf``) all take them from here.
-    """
-    v, w = 0.5 * (V_R + V_L), (V_L - V_R) / b
-    c, s = math.cos(theta), math.sin(theta)
-    return v * c * dt, v * s * dt, w * dt, 0.5 * c * dt, 0.5 * s * dt, dt / b
+#: The scalars of the motion model and its Jacobians (chapter 01): ``(dx, dy, dtheta, hc, hs,
+#: g)`` from ``(theta, V_R, V_L, dt, b)``; the one place of these formulas, compiled (it is
+#: :func:`slamlib.kernels.motion_terms`, whose docstring gives them), so that
+#: :func:`motion_model`, :func:`motion_jacobians` and the filters' prediction share it.
+motion_terms = _kernels.motion_terms
 
 
 def _jacobian_matrices(dx: float, dy: float, hc: float, hs: float, g: float
@@ -401,7 +388,8 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
     (The report prints ``+dx/q`` in ``H_pose[1, 1]`` and ``+dy/q`` in
     ``H_landmark[1, 0]``: both signs are wrong, appendix A.) A landmark on top
-    of the robot has no bearing: its rows come back NaN.
+    of the robot has no bearing: its rows come back NaN. The loop over the
+    landmarks is compiled (:func:`slamlib.kernels.observe_into`).
 
     Parameters
     ----------
@@ -412,30 +400,10 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
     -------
     (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
     """
-    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
-    dx = L[:, 0] - pose[0]
-    dy = L[:, 1] - pose[1]
-    q = dx * dx + dy * dy
+    L = np.ascontiguousarray(landmarks, dtype=float).reshape(-1, 2)
     k = L.shape[0]
-    r = np.hypot(dx, dy)
-    h = np.empty((k, 2))
-    h[:, 0] = r
-    h[:, 1] = _wrap_array(np.arctan2(dy, dx) - pose[2])
-    degenerate = not (q > 0.0).all()
-    if degenerate:                       # a landmark on the robot: its rows NaN
-        q = np.where(q > 0.0, q, np.nan)
-        r = np.where(r > 0.0, r, np.nan)
-        h[np.isnan(q)] = np.nan
-    with np.errstate(divide="ignore", invalid="ignore"):
-        Hl = np.empty((k, 2, 2))
-        Hl[:, 0, 0] = dx / r
-        Hl[:, 0, 1] = dy / r
-        Hl[:, 1, 0] = -dy / q
-        Hl[:, 1, 1] = dx / q
-    Hp = np.empty((k, 2, 3))
-    Hp[:, :, :2] = -Hl
-    Hp[:, 0, 2] = 0.0
-    Hp[:, 1, 2] = -1.0
+    h, Hp, Hl = np.empty((k, 2)), np.empty((k, 2, 3)), np.empty((k, 2, 2))
+    _kernels.observe_into(np.ascontiguousarray(pose, dtype=float), L, h, Hp, Hl)
     return h, Hp, Hl
 
 

@@ -164,23 +164,33 @@ class TraceRecorder:
 
     def __init__(self, t0: float, filt):
         self.t, self.kind = [float(t0)], ["start"]
-        self.x, self.P = [filt.pose.copy()], [filt.pose_cov.copy()]
+        self._x, self._P = [filt.pose[None]], [filt.pose_cov[None]]     # chunks (k, 3), (k, 3, 3)
         self.reports: list[tuple[float, UpdateReport]] = []
 
     def record(self, t: float, kind: str, filt, report: UpdateReport | None = None) -> None:
         """Log the filter's pose after an event at time ``t`` (and the update's report)."""
         self.t.append(float(t))
         self.kind.append(kind)
-        self.x.append(filt.pose.copy())
-        self.P.append(filt.pose_cov.copy())
+        self._x.append(filt.pose[None])
+        self._P.append(filt.pose_cov[None])
         if report is not None:
             self.reports.append((float(t), report))
+
+    def record_block(self, times: list[float], kind: str, poses: np.ndarray,
+                     covs: np.ndarray) -> None:
+        """Log k events at once: their times, the poses (k, 3) and covariances (k, 3, 3) after
+        each (e.g. the predictions between two frames, :meth:`EKFSLAM._predict_block`)."""
+        self.t.extend(times)
+        self.kind.extend([kind] * len(times))
+        self._x.append(poses)
+        self._P.append(covs)
 
     def trace(self, run: Run, filt, **extra) -> Trace:
         """The :class:`Trace`, with the run's truth at the logged times."""
         t = np.array(self.t)
-        return Trace(t=t, kind=np.array(self.kind), x=np.array(self.x), P=np.array(self.P),
-                     truth=run.truth_at(t), reports=self.reports, filter=filt, **extra)
+        return Trace(t=t, kind=np.array(self.kind), x=np.concatenate(self._x),
+                     P=np.concatenate(self._P), truth=run.truth_at(t), reports=self.reports,
+                     filter=filt, **extra)
 
 
 def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,
@@ -217,25 +227,42 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     # a sensor model that guarantees a positive-definite R (see AnalyticMarkerSensor) needs no
     # check of it per frame either
     sensor_R_ok = getattr(sensor, "R_always_positive_definite", False) is True
-    for kind, t, obs, ctl in run._merged_events(by):     # the events of run.events(by)
+    # The course's own prediction runs the predictions between two frames in one call
+    # (the same arithmetic, bit for bit, as one call of predict per step).
+    blocks = (isinstance(filt, _EKFBase) and type(filt).predict is _EKFBase.predict
+              and filt._fast_predict())
+    u_all, dt_all, events = run._event_blocks(by)      # the events of run.events(by)
+    for event in events:
+        if event[0] == 0:
+            _, j0, j1, times = event
+            if max_time is not None and times[-1] > max_time:
+                keep = int(np.searchsorted(times, max_time, side="right"))
+                j1, times = j0 + keep, times[:keep]
+            if blocks:
+                rec.record_block(times, "predict", *filt._predict_block(u_all[j0:j1],
+                                                                        dt_all[j0:j1]))
+            else:
+                for j, t in zip(range(j0, j1), times):
+                    predict(u_all[j], float(dt_all[j]))
+                    rec.record(t, "predict", filt)
+            if j1 < event[2]:
+                break
+            continue
+        _, t, obs = event
         if max_time is not None and t > max_time:
             break
-        report = None
-        if kind == 0:
-            predict(*ctl)
+        if len(obs) == 0:
+            continue
+        R = reading_covariances(sensor, obs.z)
+        if until is not None and t >= until - 1e-9:
+            pending = PendingFrame(float(t), obs, R)
+            break
+        if checked:
+            report = filt._update_ids(obs.ids, obs.z, R if sensor_R_ok else
+                                      as_reading_covariances(R, filt.R, len(obs)))
         else:
-            if len(obs) == 0:
-                continue
-            R = reading_covariances(sensor, obs.z)
-            if until is not None and t >= until - 1e-9:
-                pending = PendingFrame(float(t), obs, R)
-                break
-            if checked:
-                report = filt._update_ids(obs.ids, obs.z, R if sensor_R_ok else
-                                          as_reading_covariances(R, filt.R, len(obs)))
-            else:
-                report = filt.update(obs.ids, obs.z, R=R)
-        rec.record(t, "predict" if kind == 0 else "update", filt, report)
+            report = filt.update(obs.ids, obs.z, R=R)
+        rec.record(t, "update", filt, report)
     return rec.trace(run, filt, pending=pending)
 
 

@@ -374,13 +374,9 @@ class Run:
         for kind, t, a, b in self._merged_events(by):
             yield PredictEvent(t, a, b[0], b[1]) if kind == 0 else UpdateEvent(t, a)
 
-    def _merged_events(self, by: str) -> list[tuple]:
-        """The events of :meth:`events` as plain tuples, in the same order (the runners' loop).
-
-        ``(0, t, k, (u_k, dt_k))`` for a prediction, ``(1, t, obs, None)`` for a
-        camera frame; ordered by time, predictions first at equal times, then
-        by index (a stable sort on those three keys).
-        """
+    def _event_order(self, by: str):
+        """The merged events' order (see :meth:`_merged_events`): ``(u, dt, frames, order,
+        t, kind, index)``, the last three as lists over all events, ``order`` the sequence."""
         if by not in ("capture", "arrival"):
             raise ValueError(f"by: expected 'capture' or 'arrival', got {by!r}")
         u, dt = self.controls()
@@ -392,16 +388,52 @@ class Run:
         kind = np.concatenate([np.zeros(t_pred.size, np.int64), np.ones(t_cam.size, np.int64)])
         index = np.concatenate([np.arange(t_pred.size), np.arange(t_cam.size)])
         order = np.lexsort((index, kind, t_all))
-        t_list, dt_list, kind_list, index_list = (t_all.tolist(), dt.tolist(), kind.tolist(),
-                                                  index.tolist())
+        return u, dt, frames, order.tolist(), t_all.tolist(), kind.tolist(), index.tolist()
+
+    def _merged_events(self, by: str) -> list[tuple]:
+        """The events of :meth:`events` as plain tuples, in the same order (the runners' loop).
+
+        ``(0, t, k, (u_k, dt_k))`` for a prediction, ``(1, t, obs, None)`` for a
+        camera frame; ordered by time, predictions first at equal times, then
+        by index (a stable sort on those three keys).
+        """
+        u, dt, frames, order, t_list, kind_list, index_list = self._event_order(by)
+        dt_list = dt.tolist()
         out = []
-        for i in order.tolist():
+        for i in order:
             j = index_list[i]
             if kind_list[i] == 0:
                 out.append((0, t_list[i], j + 1, (u[j], dt_list[j])))
             else:
                 out.append((1, t_list[i], frames[j], None))
         return out
+
+    def _event_blocks(self, by: str) -> tuple[np.ndarray, np.ndarray, list[tuple]]:
+        """The events of :meth:`_merged_events`, the predictions between two frames together.
+
+        Returns ``(u, dt, blocks)``: the controls (:meth:`controls`) and, in
+        order, ``(0, j0, j1, times)`` for the predictions with the controls
+        ``u[j0:j1]``, ``dt[j0:j1]`` at the times ``times`` (a list), and
+        ``(1, t, obs)`` for a camera frame.
+        """
+        u, dt, frames, order, t_list, kind_list, index_list = self._event_order(by)
+        blocks: list[tuple] = []
+        times: list[float] = []
+        j0 = 0
+        for i in order:
+            j = index_list[i]
+            if kind_list[i] == 0:
+                if not times:
+                    j0 = j
+                times.append(t_list[i])
+            else:
+                if times:
+                    blocks.append((0, j0, j0 + len(times), times))
+                    times = []
+                blocks.append((1, t_list[i], frames[j]))
+        if times:
+            blocks.append((0, j0, j0 + len(times), times))
+        return u, dt, blocks
 
     def summary(self) -> str:
         """One line: name, world, duration, readings."""

@@ -1,0 +1,333 @@
+"""The filters' inner loops, compiled with numba: one implementation of each, written out.
+
+:mod:`slamlib.ekf` keeps the filters' logic (association, gate decisions,
+reports, hooks) in Python and calls these kernels for the arithmetic of one
+step, where numpy's cost per call, not the arithmetic, was the price: a
+course-sized state (n = 23) spent about 110 us in some 25 numpy calls per
+update, and a Monte-Carlo of 100 runs makes 54,000 updates.
+
+Each kernel is the algebra its docstring gives, on checked float64 arrays
+(the callers check), in loops a student can read against the chapter:
+
+- :func:`motion_terms`, :func:`shear_cov`, :func:`predict_pose` and
+  :func:`predict_poses`: the prediction of chapter 01 (scalars);
+- :func:`observe_into`: ``h``, ``H_pose``, ``H_landmark`` of chapter 03;
+- :func:`innovation_covs` and :func:`innovation_distances`: ``S_i = H_i P H_i^T + R_i``,
+  ``y_i`` and ``d2_i`` (the gate);
+- :func:`fuse`: the joint update of chapter 05 through the Cholesky factor of S.
+
+No fast-math: LLVM does not reassociate or fuse these operations, so a
+kernel's scalar arithmetic is IEEE arithmetic in the order written, and
+the results do not depend on the machine's vector width or on how many
+processes share the work. ``cache=True`` keeps the compiled code beside
+this file (``__pycache__``), so only the first process compiles.
+"""
+
+from __future__ import annotations
+
+import math
+
+import numpy as np
+from numba import njit
+
+_PI = math.pi
+_TWO_PI = 2.0 * math.pi
+
+
+@njit(cache=True)
+def wrap(a: float) -> float:
+    """``a`` wrapped to [-pi, pi): ``(a + pi) mod 2 pi - pi`` (a finite float).
+
+    The same operations as :func:`slamlib.models.wrap_angle` (Python's and
+    numba's float ``%`` take the sign of the divisor, as ``np.mod``).
+    """
+    w = (a + _PI) % _TWO_PI - _PI
+    return w - _TWO_PI if w >= _PI else w
+
+
+@njit(cache=True)
+def motion_terms(theta: float, V_R: float, V_L: float, dt: float, b: float):
+    """The scalars of the motion model and its Jacobians (chapter 01), computed once.
+
+    With ``V = (V_R + V_L)/2``, ``w = (V_L - V_R)/b`` (z-down) and the heading
+    ``theta`` at the start of the step, returns ``(dx, dy, dtheta, hc, hs, g)``:
+
+    - the step ``dx = V cos(theta) dt``, ``dy = V sin(theta) dt``, ``dtheta = w dt``
+      (so ``f(x) = x + [dx, dy, dtheta]``, heading wrapped);
+    - ``A = [[1, 0, -dy], [0, 1, dx], [0, 0, 1]]``;
+    - ``W = [[hc, hc], [hs, hs], [-g, g]]`` with ``hc = cos(theta) dt/2``,
+      ``hs = sin(theta) dt/2``, ``g = dt/b``.
+
+    The one place of these formulas: :func:`slamlib.models.motion_model`,
+    :func:`slamlib.models.motion_jacobians` and the filters' prediction all
+    take them from here (``slamlib.models.motion_terms`` is this function).
+    """
+    v, w = 0.5 * (V_R + V_L), (V_L - V_R) / b
+    c, s = math.cos(theta), math.sin(theta)
+    return v * c * dt, v * s * dt, w * dt, 0.5 * c * dt, 0.5 * s * dt, dt / b
+
+
+@njit(cache=True)
+def shear_cov(P, Q, a: float, b: float, w00: float, w01: float, w10: float, w11: float,
+              w20: float, w21: float) -> None:
+    """``P_rr <- A P_rr A^T + W Q W^T`` for the shear ``A = I + c e_3^T``, ``c = [a, b, 0]``.
+
+    Element by element, exactly symmetric (``P`` the filter's storage, ``W`` the
+    3x2 noise Jacobian row by row, chapter 01)::
+
+        (A P A^T)_ij = P_ij + c_i P_3j + P_i3 c_j + c_i c_j P_33
+    """
+    p00, p01, p02 = P[0, 0], P[0, 1], P[0, 2]
+    p11, p12, p22 = P[1, 1], P[1, 2], P[2, 2]
+    q00, q01, q11 = Q[0, 0], Q[0, 1], Q[1, 1]
+    # rows of W Q
+    r00, r01 = w00 * q00 + w01 * q01, w00 * q01 + w01 * q11
+    r10, r11 = w10 * q00 + w11 * q01, w10 * q01 + w11 * q11
+    r20, r21 = w20 * q00 + w21 * q01, w20 * q01 + w21 * q11
+    n00 = p00 + 2.0 * a * p02 + a * a * p22 + (r00 * w00 + r01 * w01)
+    n01 = p01 + a * p12 + b * p02 + a * b * p22 + (r00 * w10 + r01 * w11)
+    n11 = p11 + 2.0 * b * p12 + b * b * p22 + (r10 * w10 + r11 * w11)
+    n02 = p02 + a * p22 + (r00 * w20 + r01 * w21)
+    n12 = p12 + b * p22 + (r10 * w20 + r11 * w21)
+    n22 = p22 + (r20 * w20 + r21 * w21)
+    P[0, 0], P[0, 1], P[0, 2] = n00, n01, n02
+    P[1, 0], P[1, 1], P[1, 2] = n01, n11, n12
+    P[2, 0], P[2, 1], P[2, 2] = n02, n12, n22
+
+
+@njit(cache=True)
+def predict_pose(x, P, Q, V_R: float, V_L: float, dt: float, b: float):
+    """One prediction of the pose and of ``P_rr`` (chapter 01); returns its shear ``(a, b)``.
+
+    ``x[:3] <- f(x[:3], u)`` with :func:`motion_terms`, and ``P_rr`` by
+    :func:`shear_cov` with ``A = I + c e_3^T``, ``c = [-dy, dx, 0]``.
+    ``P_rm <- A P_rm`` is left to the caller, who composes the shears of
+    several predictions by adding their ``c`` (see ``slamlib.ekf``).
+    """
+    th = x[2]
+    dx, dy, dth, hc, hs, g = motion_terms(th, V_R, V_L, dt, b)
+    x[0] = x[0] + dx
+    x[1] = x[1] + dy
+    x[2] = wrap(th + dth)
+    shear_cov(P, Q, -dy, dx, hc, hc, hs, hs, -g, g)
+    return -dy, dx
+
+
+@njit(cache=True)
+def predict_poses(x, P, Q, u, dt, b: float, has_shear: bool, sa: float, sb: float,
+                  poses, covs):
+    """:func:`predict_pose` for each row of ``u`` (k, 2) and ``dt`` (k,), in order.
+
+    Writes the pose and ``P_rr`` after each step into ``poses`` (k, 3) and
+    ``covs`` (k, 3, 3) (what a trace records), and returns the pending shear
+    ``(has, a, b)``: the given one ``(has_shear, sa, sb)`` plus each step's, added
+    in the order the steps are made (as one prediction at a time would).
+    """
+    for k in range(dt.shape[0]):
+        a, bb = predict_pose(x, P, Q, u[k, 0], u[k, 1], dt[k], b)
+        if has_shear:
+            sa, sb = sa + a, sb + bb
+        else:
+            sa, sb, has_shear = a, bb, True
+        for i in range(3):
+            poses[k, i] = x[i]
+            for j in range(3):
+                covs[k, i, j] = P[i, j]
+    return has_shear, sa, sb
+
+
+@njit(cache=True)
+def observe_into(pose, L, h, Hp, Hl) -> None:
+    """The direct observation of k landmarks ``L`` (k, 2) and its Jacobians (chapter 03).
+
+    Per landmark, with ``dx = x_F - x_B``, ``dy = y_F - y_B``, ``q = dx^2 + dy^2``
+    and ``r = sqrt(q)`` (``hypot``)::
+
+        h          = [r, atan2(dy, dx) - theta]          (bearing wrapped)
+        H_pose     = [[-dx/r, -dy/r,  0],   H_landmark = [[ dx/r, dy/r],
+                      [ dy/q, -dx/q, -1]]                 [-dy/q, dx/q]]
+
+    into ``h`` (k, 2), ``Hp`` (k, 2, 3), ``Hl`` (k, 2, 2). A landmark on the
+    robot (``q = 0``) has no bearing: its rows of ``h``, ``Hl`` and the first
+    two columns of ``Hp`` are NaN.
+    """
+    for i in range(L.shape[0]):
+        dx = L[i, 0] - pose[0]
+        dy = L[i, 1] - pose[1]
+        q = dx * dx + dy * dy
+        r = math.hypot(dx, dy)
+        if q > 0.0:
+            h[i, 0] = r
+            h[i, 1] = wrap(math.atan2(dy, dx) - pose[2])
+            a, bb, c, d = dx / r, dy / r, -dy / q, dx / q
+        else:
+            h[i, 0] = h[i, 1] = a = bb = c = d = np.nan
+        Hl[i, 0, 0], Hl[i, 0, 1], Hl[i, 1, 0], Hl[i, 1, 1] = a, bb, c, d
+        Hp[i, 0, 0], Hp[i, 0, 1], Hp[i, 0, 2] = -a, -bb, 0.0
+        Hp[i, 1, 0], Hp[i, 1, 1], Hp[i, 1, 2] = -c, -d, -1.0
+
+
+@njit(cache=True)
+def innovation_covs(P, slots, Hp, Hl, R, S) -> None:
+    """``S_i = H_i P H_i^T + R_i`` of each reading into ``S`` (k, 2, 2), exactly symmetric.
+
+    From the blocks of P the reading touches: the pose, and its landmark at
+    ``slots[i]`` when ``slots[i] >= 0`` (a known map has none), with
+    ``H_i = [H_pose_i, H_landmark_i]`` over those columns.
+    """
+    for i in range(slots.shape[0]):
+        s = slots[i]
+        c = 5 if s >= 0 else 3
+        # Hb: the reading's 2 x c Jacobian over [pose, landmark]; idx: those columns of P
+        Hb = np.empty((2, c))
+        idx = np.empty(c, dtype=np.int64)
+        for j in range(3):
+            idx[j] = j
+            Hb[0, j], Hb[1, j] = Hp[i, 0, j], Hp[i, 1, j]
+        if s >= 0:
+            idx[3], idx[4] = s, s + 1
+            for j in range(2):
+                Hb[0, 3 + j], Hb[1, 3 + j] = Hl[i, 0, j], Hl[i, 1, j]
+        # HPb = Hb P[idx, idx] (2 x c), then S = HPb Hb^T + R
+        HPb = np.zeros((2, c))
+        for r in range(2):
+            for j in range(c):
+                acc = 0.0
+                for q in range(c):
+                    acc += Hb[r, q] * P[idx[q], idx[j]]
+                HPb[r, j] = acc
+        for r in range(2):
+            for j in range(2):
+                acc = 0.0
+                for q in range(c):
+                    acc += HPb[r, q] * Hb[j, q]
+                S[i, r, j] = acc + R[i, r, j]
+        S[i, 0, 1] = S[i, 1, 0] = 0.5 * (S[i, 0, 1] + S[i, 1, 0])
+
+
+@njit(cache=True)
+def innovation_distances(z, h, S, y, d2) -> None:
+    """``y_i = z_i - h_i`` (bearing wrapped) and ``d2_i = y_i^T S_i^-1 y_i`` (the gate).
+
+    The 2x2 inverse written out: ``S^-1 = [[s11, -s01], [-s01, s00]] / (s00 s11 - s01^2)``.
+    """
+    for i in range(h.shape[0]):
+        y0 = z[i, 0] - h[i, 0]
+        y1 = wrap(z[i, 1] - h[i, 1])
+        y[i, 0], y[i, 1] = y0, y1
+        s00, s01, s11 = S[i, 0, 0], S[i, 0, 1], S[i, 1, 1]
+        d2[i] = (s11 * y0 * y0 - 2.0 * s01 * y0 * y1 + s00 * y1 * y1) / (s00 * s11 - s01 * s01)
+
+
+@njit(cache=True)
+def fuse(x, P, n: int, slots, Hp, Hl, y, R, subtract: bool):
+    """One joint update with m readings (chapter 05); returns ``(ok, NIS, W)``.
+
+    H (2m x n) has non-zero columns only at the pose and the landmarks read;
+    with ``c`` those columns and ``Hc`` H restricted to them::
+
+        HP = Hc P[c, :]   (= H P, 2m x n)       S = HP[:, c] Hc^T + R = L L^T
+        W  = L^-1 HP      (the whitened gain)    v = L^-1 y
+        x <- x + W^T v,   P <- P - W^T W,        NIS = v^T v
+
+    (``K = W^T L^-1``, so ``W^T v = K y`` and ``W^T W = K S K^T``.) ``P -= W^T W``
+    is done here, entry ``(i, j)`` and ``(j, i)`` by the same sum, when
+    ``subtract``; otherwise the caller does it with W (BLAS, large n). If S
+    is not positive definite nothing changes and ``ok`` is False.
+    """
+    m = slots.shape[0]
+    # the observed landmarks, once each, in the order first read
+    lm = np.empty(m, dtype=np.int64)
+    nl = 0
+    for j in range(m):
+        s = slots[j]
+        if s >= 0:
+            seen = False
+            for q in range(nl):
+                if lm[q] == s:
+                    seen = True
+            if not seen:
+                lm[nl] = s
+                nl += 1
+    nc = 3 + 2 * nl
+    cols = np.empty(nc, dtype=np.int64)
+    cols[0], cols[1], cols[2] = 0, 1, 2
+    for q in range(nl):
+        cols[3 + 2 * q], cols[4 + 2 * q] = lm[q], lm[q] + 1
+    Hc = np.zeros((2 * m, nc))
+    for j in range(m):
+        for r in range(2):
+            for c in range(3):
+                Hc[2 * j + r, c] = Hp[j, r, c]
+        s = slots[j]
+        if s >= 0:
+            q = 0
+            while lm[q] != s:
+                q += 1
+            for r in range(2):
+                Hc[2 * j + r, 3 + 2 * q] = Hl[j, r, 0]
+                Hc[2 * j + r, 4 + 2 * q] = Hl[j, r, 1]
+    mm = 2 * m
+    HP = np.zeros((mm, n))
+    for r in range(mm):
+        for c in range(nc):
+            hv = Hc[r, c]
+            if hv != 0.0:
+                row = cols[c]
+                for k in range(n):
+                    HP[r, k] += hv * P[row, k]
+    S = np.zeros((mm, mm))
+    for r in range(mm):
+        for q in range(mm):
+            acc = 0.0
+            for c in range(nc):
+                acc += HP[r, cols[c]] * Hc[q, c]
+            S[r, q] = acc
+    for j in range(m):
+        for r in range(2):
+            for q in range(2):
+                S[2 * j + r, 2 * j + q] += R[j, r, q]
+    # Cholesky of the symmetric part, S = L L^T
+    L = np.zeros((mm, mm))
+    for r in range(mm):
+        for q in range(r + 1):
+            acc = 0.5 * (S[r, q] + S[q, r])
+            for k in range(q):
+                acc -= L[r, k] * L[q, k]
+            if r == q:
+                if not acc > 0.0:
+                    return False, np.nan, HP
+                L[r, r] = math.sqrt(acc)
+            else:
+                L[r, q] = acc / L[q, q]
+    # W = L^-1 HP and v = L^-1 y, by forward substitution
+    W = HP
+    v = np.empty(mm)
+    for r in range(mm):
+        acc = y[r // 2, r % 2]
+        for k in range(r):
+            acc -= L[r, k] * v[k]
+        v[r] = acc / L[r, r]
+        for c in range(n):
+            a = W[r, c]
+            for k in range(r):
+                a -= L[r, k] * W[k, c]
+            W[r, c] = a / L[r, r]
+    nis = 0.0
+    for r in range(mm):
+        nis += v[r] * v[r]
+    for c in range(n):
+        acc = 0.0
+        for r in range(mm):
+            acc += W[r, c] * v[r]
+        x[c] += acc
+    if subtract:
+        for i in range(n):
+            for j in range(i, n):
+                acc = 0.0
+                for r in range(mm):
+                    acc += W[r, i] * W[r, j]
+                P[i, j] -= acc
+                if j != i:
+                    P[j, i] -= acc
+    return True, nis, W
