@@ -114,7 +114,7 @@ from __future__ import annotations
 import functools
 import math
 import numbers
-from dataclasses import dataclass, replace
+from dataclasses import dataclass
 
 import numpy as np
 
@@ -529,7 +529,7 @@ class _EKFBase:
         and the covariances of the run's own sensor model.
         """
         # steps 1 and 2, association by id and each reading's gate at the prior: nothing changes
-        report, fuse = self._gate_ids(ids, z, Rk)
+        fields, fuse = self._gate_ids(ids, z, Rk)
         # -------- everything is checked: from here on the state changes
         # step 3: the accepted readings in ONE joint update
         joint_nis = float("nan")
@@ -541,23 +541,23 @@ class _EKFBase:
                 joint_nis = self._fuse(slots_a[acc], Hp[acc], Hl[acc], y[acc], Rg[acc])
             self._x[2] = _wrap_scalar(float(self._x[2]))
         # step 4: ids never seen before join the state, from the updated pose (inverse observation)
-        for i in np.flatnonzero(report.new).tolist():
+        for i in fields["new_index"]:
             self._add_landmark(int(ids[i]), z[i], Rk[i])
-        return replace(report, joint_nis=joint_nis)
+        return _report(fields, joint_nis)
 
     def _gate_ids(self, ids: np.ndarray, z: np.ndarray, Rk: np.ndarray):
         """Steps 1 and 2 of :meth:`update` (association by id, each reading gated at the prior):
-        the report the update will return (``joint_nis`` not yet known) and what the joint
-        update then fuses, ``(slots, H_pose, H_landmark, y, R, accepted)`` or None.
+        the report's fields (``joint_nis`` not yet known; see :func:`_report`) and what the
+        joint update then fuses, ``(slots, H_pose, H_landmark, y, R, accepted)`` or None.
         Nothing changes."""
         k = ids.shape[0]
         status = [""] * k
         gated, positions, slots = [], [], []
         first_new: dict[int, int] = {}
         # step 1, association: each id is looked up (a mapped landmark, new, or unknown)
-        for i in range(k):
-            mid = int(ids[i])
-            found = self._lookup(mid)
+        lookup = self._lookup
+        for i, mid in enumerate(ids.tolist()):
+            found = lookup(mid)
             if found is not None:
                 gated.append(i)
                 positions.append(found[0])
@@ -569,11 +569,14 @@ class _EKFBase:
             else:
                 first_new[mid] = i
                 status[i] = "new"
-
-        d2 = np.full(k, np.nan)
-        innov = np.full((k, 2), np.nan)
-        pred = np.full((k, 2), np.nan)
-        S_all = np.full((k, 2, 2), np.nan)
+        every = len(gated) == k                      # the usual frame: every id mapped
+        if every:
+            d2 = innov = pred = S_all = None         # the gated arrays themselves, below
+        else:
+            d2 = np.full(k, np.nan)
+            innov = np.full((k, 2), np.nan)
+            pred = np.full((k, 2), np.nan)
+            S_all = np.full((k, 2, 2), np.nan)
         accepted = np.zeros(k, dtype=bool)
         fuse = None
 
@@ -586,28 +589,39 @@ class _EKFBase:
                 for i in g[~ok]:
                     status[i] = "degenerate"
                 g, h, Hp, Hl, slots_a = g[ok], h[ok], Hp[ok], Hl[ok], slots_a[ok]
+                if every:
+                    every = False
+                    d2, innov = np.full(k, np.nan), np.full((k, 2), np.nan)
+                    pred, S_all = np.full((k, 2), np.nan), np.full((k, 2, 2), np.nan)
         if gated and g.size:
             # step 2, the gate: y_i = z_i - h_i, S_i = H_i P H_i^T + R_i, d2_i = y_i^T S_i^-1 y_i
-            Rg = np.ascontiguousarray(Rk[g])
+            Rg = Rk if every else np.ascontiguousarray(Rk[g])
             S = self._innovation_covs(slots_a, Hp, Hl, Rg)
             y, d2g = np.empty((g.size, 2)), np.empty(g.size)
-            _kernels.innovation_distances(z[g], np.ascontiguousarray(h, dtype=float), S, y, d2g)
-            acc = np.ones(g.size, dtype=bool) if self.gate is None else d2g < self.threshold
-            d2[g], innov[g], pred[g], S_all[g] = d2g, y, h, S
-            accepted[g[acc]] = True
+            h = _f64(h)
+            _kernels.innovation_distances(z if every else z[g], h, S, y, d2g)
+            acc = d2g < self.threshold if self.gate is not None else np.ones(g.size, dtype=bool)
+            if every:
+                d2, innov, pred, S_all, accepted = d2g, y, h, S, acc
+            else:
+                d2[g], innov[g], pred[g], S_all[g] = d2g, y, h, S
+                accepted[g[acc]] = True
             flags = acc.tolist()
             for i, a in zip(g.tolist(), flags):
                 status[i] = "accepted" if a else "rejected"
-            if any(flags):
+            if True in flags:
                 fuse = (slots_a, Hp, Hl, y, Rg, acc)
+        elif every:                                  # k = 0
+            d2, innov = np.full(k, np.nan), np.full((k, 2), np.nan)
+            pred, S_all = np.full((k, 2), np.nan), np.full((k, 2, 2), np.nan)
 
         new = np.zeros(k, dtype=bool)
-        new[list(first_new.values())] = True
-        report = UpdateReport(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new,
-                              d2=d2, innovation=innov, predicted=pred, S=S_all,
-                              threshold=self.threshold, gate=self.gate,
-                              joint_nis=float("nan"))
-        return report, fuse
+        new_index = list(first_new.values())
+        new[new_index] = True
+        fields = dict(ids=ids, z=z, status=tuple(status), accepted=accepted, new=new, d2=d2,
+                      innovation=innov, predicted=pred, S=S_all, threshold=self.threshold,
+                      gate=self.gate, new_index=new_index)
+        return fields, fuse
 
     def preview(self, ids, z, R=None) -> UpdateReport:
         """What :meth:`update` ``(ids, z, R)`` would report, without changing the filter.
@@ -629,7 +643,8 @@ class _EKFBase:
         ids = as_marker_ids(ids)
         k = ids.shape[0]
         z = as_readings(z, k)
-        return self._gate_ids(ids, z, as_reading_covariances(R, self.R, k))[0]
+        return _report(self._gate_ids(ids, z, as_reading_covariances(R, self.R, k))[0],
+                       float("nan"))
 
     def _update_without_ids(self, ids, z, R) -> UpdateReport:
         """The association step without ids (chapter 09): pair, fuse jointly, then add new ones.
@@ -893,6 +908,13 @@ class _EKFBase:
         P[n:n + 2, :n] = PLx
         P[:n, n:n + 2] = PLx.T
         P[n:n + 2, n:n + 2] = 0.5 * (PLL + PLL.T)
+
+
+def _report(fields: dict, joint_nis: float) -> UpdateReport:
+    """The :class:`UpdateReport` from the fields :meth:`_EKFBase._gate_ids` made."""
+    f = dict(fields)
+    del f["new_index"]
+    return UpdateReport(joint_nis=joint_nis, **f)
 
 
 def _f64(a: np.ndarray) -> np.ndarray:

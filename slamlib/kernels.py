@@ -331,3 +331,150 @@ def fuse(x, P, n: int, slots, Hp, Hl, y, R, subtract: bool):
                 if j != i:
                     P[j, i] -= acc
     return True, nis, W
+
+
+# --------------------------------------------------------------------------- the simulator
+# slamlib.sim's loop, one encoder period at a time (chapter 01): the controller, the slip, the
+# camera's capture instants, the exact arc and the encoders. Python's min and max are written out
+# (``min(a, b)`` is ``b`` only if ``b < a``) so that ties give the same float as in Python.
+@njit(cache=True)
+def _py_min(a: float, b: float) -> float:
+    return b if b < a else a
+
+
+@njit(cache=True)
+def _py_max(a: float, b: float) -> float:
+    return b if b > a else a
+
+
+@njit(cache=True)
+def arc(x: float, y: float, th: float, v: float, w: float, dt: float):
+    """Exact motion at constant ``v`` and ``w`` for ``dt`` (``slamlib.sim.integrate_arc``).
+
+    An arc of radius ``v/w`` or, when ``|w dt| < 1e-9``, its second-order
+    expansion (a segment at the mid heading); heading wrapped.
+    """
+    dth = w * dt
+    if abs(dth) < 1e-9:
+        c, s = math.cos(th + 0.5 * dth), math.sin(th + 0.5 * dth)
+        return x + v * dt * c, y + v * dt * s, wrap(th + dth)
+    r = v / w
+    th1 = th + dth
+    return x + r * (math.sin(th1) - math.sin(th)), y - r * (math.cos(th1) - math.cos(th)), wrap(th1)
+
+
+@njit(cache=True)
+def encoder_count(rim_angle: float, ticks_per_rev: float, offset: int, bits: int) -> int:
+    """The counter after the wheel turned ``rim_angle`` (``slamlib.sim.encoder_counter``):
+    whole ticks (floor) plus ``offset``, modulo ``2**bits``."""
+    ticks = int(math.floor(rim_angle * ticks_per_rev / (2.0 * math.pi)))
+    return (ticks + offset) % (1 << bits)
+
+
+@njit(cache=True)
+def waypoint_command(wp, index: int, v: float, w: float, px: float, py: float, th: float,
+                     dt: float, b: float, v_max: float, w_max: float, k_heading: float,
+                     accel: float, alpha: float, tolerance: float, turn_in_place: float):
+    """One call of ``WaypointController.command``: returns ``(index, v, w, V_R, V_L)``.
+
+    Skip the waypoints within ``tolerance``; aim at the next one (``w = k e``
+    clipped to ``w_max``, ``v = v_max cos e``, zero beyond ``turn_in_place``,
+    braking on the final approach); both speeds rate-limited; wheel speeds
+    ``v -/+ w b/2``.
+    """
+    n = wp.shape[0]
+    while index < n:
+        if math.hypot(wp[index, 0] - px, wp[index, 1] - py) > tolerance:
+            break
+        index += 1
+    if index < n:
+        dx, dy = wp[index, 0] - px, wp[index, 1] - py
+        dist = math.hypot(dx, dy)
+        e = wrap(math.atan2(dy, dx) - th)
+        w_des = _py_max(-w_max, _py_min(w_max, k_heading * e))
+        v_des = 0.0 if abs(e) > turn_in_place else v_max * math.cos(e)
+        if index == n - 1:                 # final approach: brake in time
+            v_des = _py_min(v_des, math.sqrt(2.0 * accel * _py_max(dist - 0.5 * tolerance,
+                                                                    0.0)))
+    else:
+        v_des = w_des = 0.0
+    dv, dw = accel * dt, alpha * dt
+    v += _py_max(-dv, _py_min(dv, v_des - v))
+    w += _py_max(-dw, _py_min(dw, w_des - w))
+    half = 0.5 * w * b
+    return index, v, w, v - half, v + half
+
+
+@njit(cache=True)
+def sim_period(pose, VR: float, VL: float, eR: float, eL: float, k: int, next_frame: int,
+               b: float, dt: float, sigma_wheel: float, encoder_rate: float,
+               camera_rate: float, cap_j, cap_pose):
+    """One encoder period of ``KobukiSim.step``: returns ``(next_frame, n_captured)``.
+
+    The ground speeds are the rim speeds plus the slip ``sigma_wheel * [eR, eL]``;
+    the camera frames ``j`` whose instant ``j / camera_rate`` falls in this
+    period (none without a camera, ``camera_rate = 0``) are captured at the
+    pose on the arc then (into ``cap_j``, ``cap_pose``); ``pose`` moves along
+    the arc of the period.
+    """
+    gR, gL = VR + sigma_wheel * eR, VL + sigma_wheel * eL
+    v, w = 0.5 * (gR + gL), (gL - gR) / b
+    x0, y0, th0 = pose[0], pose[1], pose[2]
+    n = 0
+    while camera_rate > 0.0:
+        x = next_frame * encoder_rate / camera_rate     # capture time in periods
+        kk = int(math.floor(x + 1e-9))
+        if kk > k:
+            break
+        frac = _py_max(x - k, 0.0) if kk == k else 0.0
+        if frac < 1e-9:
+            px, py, pth = x0, y0, th0
+        else:
+            px, py, pth = arc(x0, y0, th0, v, w, frac * dt)
+        cap_j[n] = next_frame
+        cap_pose[n, 0], cap_pose[n, 1], cap_pose[n, 2] = px, py, pth
+        n += 1
+        next_frame += 1
+    pose[0], pose[1], pose[2] = arc(x0, y0, th0, v, w, dt)
+    return next_frame, n
+
+
+@njit(cache=True)
+def drive_waypoints(wp, control, pose, state, angles, slip, n_max: int, b: float, r: float,
+                    dt: float, sigma_wheel: float, encoder_rate: float, camera_rate: float,
+                    ticks_per_rev: float, bits: int, off_R: int, off_L: int,
+                    times, poses, ticks, cap_j, cap_pose):
+    """``simulate``'s loop (command, then one period) while ``state[0] < n_max``, the path is
+    not finished and slip rows remain; returns ``(periods done, frames captured)``.
+
+    ``control = [index, v, w, v_max, w_max, k_heading, accel, alpha, tolerance,
+    turn_in_place]`` (the first three updated), ``state = [k, next_frame]``,
+    ``angles`` the rim angles; each period's time, pose and counters go to
+    ``times``, ``poses``, ``ticks``, its frames to ``cap_j``, ``cap_pose``.
+    """
+    index, v, w = int(control[0]), control[1], control[2]
+    k, next_frame = state[0], state[1]
+    n_wp = wp.shape[0]
+    done = 0
+    ncap = 0
+    while k < n_max and done < slip.shape[0]:
+        if index >= n_wp and v == 0.0 and w == 0.0:
+            break
+        index, v, w, VR, VL = waypoint_command(
+            wp, index, v, w, pose[0], pose[1], pose[2], dt, b, control[3], control[4],
+            control[5], control[6], control[7], control[8], control[9])
+        next_frame, n = sim_period(pose, VR, VL, slip[done, 0], slip[done, 1], k, next_frame,
+                                   b, dt, sigma_wheel, encoder_rate, camera_rate,
+                                   cap_j[ncap:], cap_pose[ncap:])
+        ncap += n
+        angles[0] += VR * dt / r
+        angles[1] += VL * dt / r
+        k += 1
+        times[done] = k / encoder_rate
+        poses[done, 0], poses[done, 1], poses[done, 2] = pose[0], pose[1], pose[2]
+        ticks[done, 0] = encoder_count(angles[0], ticks_per_rev, off_R, bits)
+        ticks[done, 1] = encoder_count(angles[1], ticks_per_rev, off_L, bits)
+        done += 1
+    control[0], control[1], control[2] = index, v, w
+    state[0], state[1] = k, next_frame
+    return done, ncap

@@ -232,6 +232,9 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     blocks = (isinstance(filt, _EKFBase) and type(filt).predict is _EKFBase.predict
               and filt._fast_predict())
     u_all, dt_all, events = run._event_blocks(by)      # the events of run.events(by)
+    # each reading's R = sensor.R(range), for all the run's readings at once
+    cam = run.camera
+    R_rows = reading_covariances(sensor, np.column_stack([cam.rho, cam.bearing]))
     for event in events:
         if event[0] == 0:
             _, j0, j1, times = event
@@ -248,12 +251,12 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
             if j1 < event[2]:
                 break
             continue
-        _, t, obs = event
+        _, t, obs, r0 = event
         if max_time is not None and t > max_time:
             break
         if len(obs) == 0:
             continue
-        R = reading_covariances(sensor, obs.z)
+        R = None if R_rows is None else R_rows[r0:r0 + len(obs)]
         if until is not None and t >= until - 1e-9:
             pending = PendingFrame(float(t), obs, R)
             break

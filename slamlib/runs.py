@@ -414,9 +414,11 @@ class Run:
         Returns ``(u, dt, blocks)``: the controls (:meth:`controls`) and, in
         order, ``(0, j0, j1, times)`` for the predictions with the controls
         ``u[j0:j1]``, ``dt[j0:j1]`` at the times ``times`` (a list), and
-        ``(1, t, obs)`` for a camera frame.
+        ``(1, t, obs, r0)`` for a camera frame whose readings are the rows
+        ``r0:r0 + len(obs)`` of :attr:`camera`.
         """
         u, dt, frames, order, t_list, kind_list, index_list = self._event_order(by)
+        first_row = np.cumsum([0] + [len(f) for f in frames]).tolist()
         blocks: list[tuple] = []
         times: list[float] = []
         j0 = 0
@@ -430,7 +432,7 @@ class Run:
                 if times:
                     blocks.append((0, j0, j0 + len(times), times))
                     times = []
-                blocks.append((1, t_list[i], frames[j]))
+                blocks.append((1, t_list[i], frames[j], first_row[j]))
         if times:
             blocks.append((0, j0, j0 + len(times), times))
         return u, dt, blocks

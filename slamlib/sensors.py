@@ -337,14 +337,17 @@ class AnalyticMarkerSensor:
         pose = as_vector("pose", pose, 3)
         return self._read(_Geometry(world), pose, rng)
 
-    def _read_frames(self, geo: _Geometry, poses: list, times: list, latency: float,
-                     rng: np.random.Generator) -> list[Observations]:
-        """The frames seen from ``poses`` at the capture ``times``, in order, all at once.
+    def _read_rows(self, geo: _Geometry, poses: list, times: list, latency: float,
+                   rng: np.random.Generator) -> tuple[dict[str, np.ndarray], np.ndarray]:
+        """The frames seen from ``poses`` at the capture ``times``, in order, all at once, as
+        the columns of :class:`slamlib.runs.CameraRows` (one row per reading), and the
+        number of readings of each frame.
 
         Per frame the same draws in the same order (a fixed number per marker and
         per frame), so reading a run's frames one by one (:meth:`_read`, as a
         closed-loop run must) or all at the end gives the same numbers bit for bit
-        (``tests/test_fast_paths.py``).
+        (``tests/test_fast_paths.py``). In a frame the readings come in the order
+        of ``world.ids``, the outlier (if any) last.
         """
         F, n = len(poses), geo.n
         E = np.empty((F, n, 2))
@@ -366,36 +369,49 @@ class AnalyticMarkerSensor:
         rho = np.maximum(rho, 0.0)
         beta = _wrap_array(beta_t + self.sigma_bearing * E[:, :, 1])
         world_ids = geo.ids.astype(np.int64)
-        out = []
-        for f in range(F):
-            idx = np.flatnonzero(seen[f])
-            ids_true = world_ids[idx]
-            obs = self._with_faults(idx, ids_true, np.column_stack([rho[f, idx], beta[f, idx]]),
-                                    np.column_stack([rho_t[f, idx], beta_t[f, idx]]), U[f], V[f],
-                                    world_ids)
-            obs.t, obs.t_arrival = times[f], times[f] + latency
-            out.append(obs)
-        return out
-
-    def _with_faults(self, idx, ids_true, z, z_true, u_fault, u_out, world_ids) -> Observations:
-        """The frame's readings (markers ``idx`` of the world) with the misreads and the outlier
-        that the fixed draws ``u_fault`` (n, 3) and ``u_out`` (5,) decide (capture time NaN)."""
-        ids = ids_true.astype(np.int64).copy()
+        fi, mi = np.nonzero(seen)                # frame by frame, markers in world order
+        true_ids = world_ids[mi]
+        ids = true_ids.copy()
         if self.p_misread > 0.0:
-            for j, i in enumerate(idx):
-                if u_fault[i, 0] < self.p_misread:
-                    ids[j] = self._wrong_id(int(ids_true[j]), world_ids, u_fault[i, 1],
-                                            u_fault[i, 2])
-        true_ids = ids_true.astype(np.int64)
-        if u_out[0] < self.p_outlier:
-            r_o = self.min_range + u_out[1] * (self.max_range - self.min_range)
-            b_o = (2.0 * u_out[2] - 1.0) * self.fov_half_angle
-            id_o = self._wrong_id(-1, world_ids, u_out[3], u_out[4])
-            ids = np.append(ids, id_o)
-            z = np.vstack([z, [r_o, b_o]])
-            z_true = np.vstack([z_true, [np.nan, np.nan]])
-            true_ids = np.append(true_ids, -1)
-        return Observations(float("nan"), ids, z, true_ids, z_true)
+            for r in np.flatnonzero(U[fi, mi, 0] < self.p_misread).tolist():
+                ids[r] = self._wrong_id(int(true_ids[r]), world_ids, U[fi[r], mi[r], 1],
+                                        U[fi[r], mi[r], 2])
+        cols = {"t_capture": np.asarray(times, dtype=float).reshape(-1)[fi], "id": ids,
+                "rho": rho[fi, mi], "bearing": beta[fi, mi], "true_id": true_ids,
+                "true_rho": rho_t[fi, mi], "true_bearing": beta_t[fi, mi]}
+        counts = np.bincount(fi, minlength=F)
+        out = np.flatnonzero(V[:, 0] < self.p_outlier)
+        if out.size:                             # one outlier, after the frame's readings
+            u = V[out]
+            at = np.cumsum(counts)[out]
+            extra = {"t_capture": np.asarray(times, dtype=float).reshape(-1)[out],
+                     "id": np.array([self._wrong_id(-1, world_ids, a, b)
+                                     for a, b in zip(u[:, 3], u[:, 4])], dtype=np.int64),
+                     "rho": self.min_range + u[:, 1] * (self.max_range - self.min_range),
+                     "bearing": (2.0 * u[:, 2] - 1.0) * self.fov_half_angle,
+                     "true_id": np.full(out.size, -1, dtype=np.int64),
+                     "true_rho": np.full(out.size, np.nan),
+                     "true_bearing": np.full(out.size, np.nan)}
+            cols = {k: np.insert(v, at, extra[k]) for k, v in cols.items()}
+            counts[out] += 1
+        cols["t_arrival"] = cols["t_capture"] + latency
+        return cols, counts
+
+    def _read_frames(self, geo: _Geometry, poses: list, times: list, latency: float,
+                     rng: np.random.Generator) -> list[Observations]:
+        """:meth:`_read_rows` as one :class:`Observations` per frame (capture ``times``)."""
+        cols, counts = self._read_rows(geo, poses, times, latency, rng)
+        z = np.column_stack([cols["rho"], cols["bearing"]])
+        z_true = np.column_stack([cols["true_rho"], cols["true_bearing"]])
+        out = []
+        a = 0
+        for f, c in enumerate(counts.tolist()):
+            obs = Observations(float(times[f]), cols["id"][a:a + c], z[a:a + c],
+                               cols["true_id"][a:a + c], z_true[a:a + c])
+            obs.t_arrival = times[f] + latency
+            out.append(obs)
+            a += c
+        return out
 
     def _read(self, geo: _Geometry, pose: np.ndarray, rng: np.random.Generator) -> Observations:
         """:meth:`read` on a checked pose and the world's arrays: :meth:`_read_frames` of one

@@ -34,14 +34,14 @@ from dataclasses import asdict, dataclass, field, replace
 
 import numpy as np
 
+from . import kernels as _kernels
 from .models import (
     KOBUKI_TICKS_PER_REV,
     KOBUKI_WHEEL_BASE,
     KOBUKI_WHEEL_RADIUS,
-    _wrap_scalar,
     wrap_angle,
 )
-from .runs import CameraRows, Run
+from .runs import CAMERA_HEADER, CameraRows, Run
 from .sensors import AnalyticMarkerSensor, Observations, _Geometry
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 from .worlds import World
@@ -81,17 +81,11 @@ def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
     numpy.ndarray, shape (3,)
         The pose after ``dt``, heading wrapped to [-pi, pi).
     """
-    x, y, th = float(pose[0]), float(pose[1]), float(pose[2])
-    dth = w * dt
-    if abs(dth) < 1e-9:
-        # second-order expansion of the arc (exact to ~1e-27 m here)
-        c, s = math.cos(th + 0.5 * dth), math.sin(th + 0.5 * dth)
-        return np.array([x + v * dt * c, y + v * dt * s, _wrap_scalar(th + dth)])
-    r = v / w
-    th1 = th + dth
-    return np.array([x + r * (math.sin(th1) - math.sin(th)),
-                     y - r * (math.cos(th1) - math.cos(th)),
-                     _wrap_scalar(th1)])
+    x, y, th = _kernels.arc(float(pose[0]), float(pose[1]), float(pose[2]), float(v),
+                            float(w), float(dt))
+    if not math.isfinite(th):
+        raise ValueError(f"angle: expected finite numbers, got {th!r}")
+    return np.array([x, y, th])
 
 
 def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_REV,
@@ -102,8 +96,7 @@ def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_RE
     modulo ``2**bits``: a 16-bit counter wraps from 65535 to 0 going forwards
     and from 0 to 65535 going backwards.
     """
-    ticks = math.floor(rim_angle * ticks_per_rev / (2.0 * math.pi))
-    return (ticks + int(offset)) % (1 << bits)
+    return _kernels.encoder_count(float(rim_angle), float(ticks_per_rev), int(offset), int(bits))
 
 
 # --------------------------------------------------------------------------- robot
@@ -231,28 +224,15 @@ class WaypointController:
     def command(self, pose, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
                 ) -> tuple[float, float]:
         """Wheel speed commands ``(V_R, V_L)`` (m/s) for the next ``dt`` seconds."""
-        wp = self.waypoints
-        n = wp.shape[0]
-        px, py = pose[0], pose[1]
-        while self.index < n:
-            if math.hypot(wp[self.index, 0] - px, wp[self.index, 1] - py) > self.tolerance:
-                break
-            self.index += 1
-        if self.index < n:
-            dx, dy = wp[self.index, 0] - px, wp[self.index, 1] - py
-            dist = math.hypot(dx, dy)
-            e = float(_wrap_scalar(math.atan2(dy, dx) - pose[2]))
-            w_des = max(-self.w_max, min(self.w_max, self.k_heading * e))
-            v_des = 0.0 if abs(e) > self.turn_in_place else self.v_max * math.cos(e)
-            if self.index == n - 1:                 # final approach: brake in time
-                v_des = min(v_des, math.sqrt(2.0 * self.accel * max(dist - 0.5 * self.tolerance,
-                                                                    0.0)))
-        else:
-            v_des = w_des = 0.0
-        dv, dw = self.accel * dt, self.alpha * dt
-        self._v += max(-dv, min(dv, v_des - self._v))
-        self._w += max(-dw, min(dw, w_des - self._w))
-        return wheel_commands(self._v, self._w, wheel_base)
+        self.index, self._v, self._w, VR, VL = _kernels.waypoint_command(
+            self.waypoints, self.index, self._v, self._w, float(pose[0]), float(pose[1]),
+            float(pose[2]), float(dt), float(wheel_base), *self._gains())
+        return VR, VL
+
+    def _gains(self) -> tuple[float, ...]:
+        """``(v_max, w_max, k_heading, accel, alpha, tolerance, turn_in_place)``."""
+        return (float(self.v_max), float(self.w_max), float(self.k_heading), float(self.accel),
+                float(self.alpha), float(self.tolerance), float(self.turn_in_place))
 
 
 # --------------------------------------------------------------------------- paths
@@ -349,7 +329,10 @@ class KobukiSim:
         # The analytic sensor's frames may be read at the end, all at once (simulate: nobody
         # looks at them during the run): the same draws in the same order, the same numbers.
         self._deferred: list | None = [] if defer_reads and self._geometry is not None else None
+        self._deferred_rows: list[dict] = []    # their readings, once read (record)
         self._slip: list = []           # standard normal pairs drawn ahead (the same sequence)
+        # at most this many camera frames fall in one encoder period
+        self._max_frames = int(math.ceil(self._rate / params.encoder_rate)) + 1
 
     @property
     def t(self) -> float:
@@ -378,27 +361,25 @@ class KobukiSim:
             The camera frames captured during this period ``[k dt, (k+1) dt)``
             (usually none or one), each with its capture time ``t`` set.
         """
+        if not (math.isfinite(VR) and math.isfinite(VL)):
+            raise ValueError(f"VR, VL: expected finite wheel speeds, got {VR!r}, {VL!r}")
         params, k = self.params, self.k
         b, r, dt = params.wheel_base, params.wheel_radius, params.dt
         if not self._slip:              # 2 normals per period, 256 periods at a time
             self._slip = self._rng_motion.standard_normal((256, 2)).tolist()[::-1]
         eR, eL = self._slip.pop()
-        gR, gL = VR + params.sigma_wheel * eR, VL + params.sigma_wheel * eL
-        v, w = 0.5 * (gR + gL), (gL - gR) / b
-        pose = self.pose
+        pose = self.pose.copy()
+        cap_j = np.empty(self._max_frames, dtype=np.int64)
+        cap_pose = np.empty((self._max_frames, 3))
+        self._next_frame, n = _kernels.sim_period(
+            pose, float(VR), float(VL), eR, eL, k, self._next_frame, b, dt, params.sigma_wheel,
+            params.encoder_rate, self._rate if self.sensor is not None else 0.0, cap_j, cap_pose)
         captured = []
-        while self.sensor is not None:
-            x = self._next_frame * params.encoder_rate / self._rate   # capture time in periods
-            kk = math.floor(x + 1e-9)
-            if kk > k:
-                break
-            frac = max(x - k, 0.0) if kk == k else 0.0
-            p = pose if frac < 1e-9 else integrate_arc(pose, v, w, frac * dt)
-            obs = self._capture(self._next_frame, p)
+        for i in range(n):
+            obs = self._capture(int(cap_j[i]), cap_pose[i].copy())
             if obs is not None:
                 captured.append(obs)
-            self._next_frame += 1
-        self.pose = integrate_arc(pose, v, w, dt)
+        self.pose = pose
         self._angle_R += VR * dt / r
         self._angle_L += VL * dt / r
         self.k = k = k + 1
@@ -409,6 +390,54 @@ class KobukiSim:
         self.ticks_L.append(encoder_counter(self._angle_L, tpr, off[1], bits))
         return captured
 
+    def drive(self, controller: WaypointController, n_max: int) -> None:
+        """``step(*controller.command(pose, dt))`` until ``n_max`` periods or the path's end.
+
+        The same periods, draws and numbers as that loop in Python, bit for bit,
+        run by the compiled :func:`slamlib.kernels.drive_waypoints` 256 periods
+        (one draw of slip) at a time when nothing needs the frames during the
+        run (no camera, or the analytic sensor's deferred reads); else that loop.
+        """
+        params = self.params
+        if type(controller) is not WaypointController or not (
+                self.sensor is None or self._deferred is not None):
+            while self.k < n_max and not controller.done:
+                self.step(*controller.command(self.pose, params.dt, params.wheel_base))
+            return
+        control = np.array([controller.index, controller._v, controller._w,
+                            *controller._gains()], dtype=float)
+        state = np.array([self.k, self._next_frame], dtype=np.int64)
+        angles = np.array([self._angle_R, self._angle_L])
+        pose = self.pose.copy()
+        rate = self._rate if self.sensor is not None else 0.0
+        off = params.initial_ticks
+        wp = np.ascontiguousarray(controller.waypoints, dtype=float)
+        while self.k < n_max and not controller.done:
+            if not self._slip:
+                self._slip = self._rng_motion.standard_normal((256, 2)).tolist()[::-1]
+            slip = np.array(self._slip[::-1])
+            m = slip.shape[0]
+            times, poses, ticks = np.empty(m), np.empty((m, 3)), np.empty((m, 2), dtype=np.int64)
+            cap_j = np.empty(m * self._max_frames, dtype=np.int64)
+            cap_pose = np.empty((m * self._max_frames, 3))
+            done, ncap = _kernels.drive_waypoints(
+                wp, control, pose, state, angles, slip, n_max, params.wheel_base,
+                params.wheel_radius, params.dt, params.sigma_wheel, params.encoder_rate, rate,
+                float(params.ticks_per_rev), int(params.bits), int(off[0]), int(off[1]),
+                times, poses, ticks, cap_j, cap_pose)
+            del self._slip[len(self._slip) - done:]
+            controller.index, controller._v, controller._w = (int(control[0]), float(control[1]),
+                                                              float(control[2]))
+            self.k, self._next_frame = int(state[0]), int(state[1])
+            self._angle_R, self._angle_L = float(angles[0]), float(angles[1])
+            self.pose = pose.copy()
+            self.times.extend(times[:done].tolist())
+            self.poses.extend(poses[:done])
+            self.ticks_R.extend(ticks[:done, 0].tolist())
+            self.ticks_L.extend(ticks[:done, 1].tolist())
+            for i in range(ncap):
+                self._capture(int(cap_j[i]), cap_pose[i].copy())
+
     def record(self, *, name: str | None = None, description: str = "",
                controller: dict | None = None, finished: bool = False) -> Run:
         """Everything simulated so far as a :class:`~slamlib.runs.Run`.
@@ -417,11 +446,18 @@ class KobukiSim:
         ``finished`` go into the run's meta.
         """
         params = self.params
-        if self._deferred:
-            frames, self._deferred = self._deferred, []
-            self.frames.extend(self.sensor._read_frames(
-                self._geometry, [p for _, p in frames], [j / self._rate for j, _ in frames],
-                self._latency, self._rng_sense))
+        if self._deferred is None:
+            camera = CameraRows.from_frames(self.frames)
+        else:
+            if self._deferred:          # the analytic sensor's frames, read now, all at once
+                frames, self._deferred = self._deferred, []
+                cols, _ = self.sensor._read_rows(
+                    self._geometry, [p for _, p in frames], [j / self._rate for j, _ in frames],
+                    self._latency, self._rng_sense)
+                self._deferred_rows.append(cols)
+            camera = CameraRows(**{k: np.concatenate([c[k] for c in self._deferred_rows])
+                                   for k in CAMERA_HEADER}) if self._deferred_rows else \
+                CameraRows.from_frames([])
         t = np.array(self.times)
         meta = {
             "world": self.world.name, "seed": self.seed, "duration": float(t[-1]),
@@ -439,7 +475,7 @@ class KobukiSim:
         }
         return Run(name=name or f"{self.world.name}_seed{self.seed}", truth_t=t,
                    truth=np.array(self.poses), enc_t=t, ticks_R=np.array(self.ticks_R),
-                   ticks_L=np.array(self.ticks_L), camera=CameraRows.from_frames(self.frames),
+                   ticks_L=np.array(self.ticks_L), camera=camera,
                    meta=meta)
 
 
@@ -481,9 +517,7 @@ def simulate(world: World, controller: WaypointController, *, sensor=None, seed:
                     defer_reads=True)
     ctl = replace(controller)
     ctl.reset()
-    n_max = int(math.ceil(max_duration * sim.params.encoder_rate))
-    while sim.k < n_max and not ctl.done:
-        sim.step(*ctl.command(sim.pose, sim.params.dt, sim.params.wheel_base))
+    sim.drive(ctl, int(math.ceil(max_duration * sim.params.encoder_rate)))
     return sim.record(name=name, description=description, controller=ctl.params(),
                       finished=ctl.done)
 

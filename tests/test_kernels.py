@@ -181,3 +181,36 @@ def test_run_filter_in_blocks_equals_one_event_at_a_time(max_time):
     assert np.array_equal(a.filter.x, b.filter.x) and np.array_equal(a.filter.P, b.filter.P)
     if max_time is not None:
         assert a.t[-1] <= max_time < run.enc_t[-1]
+
+
+class _PythonLoopController(sim.WaypointController):
+    """The waypoint controller under another type: KobukiSim.drive then runs its Python loop."""
+
+
+@pytest.mark.parametrize("faults", [{}, {"p_misread": 0.1, "p_outlier": 0.3}])
+def test_compiled_drive_equals_the_python_loop_bit_for_bit(faults):
+    from slamlib.sensors import AnalyticMarkerSensor
+    from slamlib.worlds import load_world
+
+    world = load_world("report_arena")
+    ctl = sim.WaypointController(sim.arena_loop_waypoints())
+    slow = _PythonLoopController(sim.arena_loop_waypoints())
+    a = sim.simulate(world, ctl, sensor=AnalyticMarkerSensor(**faults), seed=21)
+    b = sim.simulate(world, slow, sensor=AnalyticMarkerSensor(**faults), seed=21)
+    for name in ("truth_t", "truth", "enc_t", "ticks_R", "ticks_L"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    for name in ("t_capture", "t_arrival", "id", "rho", "bearing", "true_id"):
+        assert np.array_equal(getattr(a.camera, name), getattr(b.camera, name)), name
+    assert a.meta["finished"] and b.meta["finished"]
+    # no camera at all: the same motion
+    c = sim.simulate(world, ctl, seed=21)
+    assert np.array_equal(c.truth, a.truth) and len(c.camera) == 0
+
+
+def test_a_step_with_a_non_finite_wheel_speed_is_refused():
+    from slamlib.worlds import load_world
+
+    s = sim.KobukiSim(load_world("report_arena"), seed=1)
+    with pytest.raises(ValueError, match="wheel speeds"):
+        s.step(0.1, float("nan"))
+    assert s.k == 0 and not s._slip          # nothing drawn, nothing moved
