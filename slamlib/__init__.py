@@ -13,6 +13,7 @@ One module per idea:
                    view, ``detect`` markers and their pose, the ``noise`` model, the ``sensor``
 - ``runs``         recorded runs (CSV + JSON) and their events
 - ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
+- ``kernels``      the filters' and the simulator's inner loops, compiled (numba)
 - ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
 - ``ekf_textbook`` the EKF's equations one per line (predict, joint update, augment, NEES)
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error

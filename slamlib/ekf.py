@@ -80,20 +80,27 @@ Cost (what "fast" means here, n = 3 + 2 N state entries)
 
       x <- x + W^T (L^-1 y),    P <- P - W^T W   (= P - K S K^T)
 
-  with ``P`` changed in place by BLAS (``dgemm``, alpha = -1, beta = 1: one
-  call over the active block of its storage, or one per strip of 32 rows when
-  n > 2048), O(n^2 m): one read and one write of each entry, no n x n
-  temporary (``_subtract_symmetric_low_rank``).
+  with ``P`` changed in place, O(n^2 m): one read and one write of each
+  entry, no n x n temporary. Up to n = 200 (the course's worlds) the
+  compiled kernel :func:`slamlib.kernels.fuse` does it all, entries (i, j)
+  and (j, i) by the same sum; above, the kernel makes W and BLAS subtracts
+  ``W^T W`` (``dgemm``, alpha = -1, beta = 1: one call over the active block
+  of its storage, or one per strip of 32 rows when n > 2048;
+  ``_subtract_symmetric_low_rank``).
   It never builds ``H`` (2m x n) nor an n x n identity, and never multiplies
   two n x n matrices. This is the Joseph form above: for any gain ``K``,
   ``(I - K H) P (I - K H)^T + K R K^T = P - G S^-1 G^T + D S D^T`` with
   ``G = P H^T`` and ``D = K - G S^-1``, so at the gain the filter applies
   (``K = G S^-1`` up to rounding) the two differ by a term of second order in
   the rounding error of K, as the Joseph form's own insensitivity to K
-  promises; K itself is never formed. ``P`` stays symmetric to rounding, not
-  bitwise: entries (i, j) and (j, i) are sums of the same products, which the
-  BLAS may add in different orders (``tests/test_ekf_inplace.py`` checks
+  promises; K itself is never formed. Above n = 200 ``P`` stays symmetric to
+  rounding, not bitwise: entries (i, j) and (j, i) are sums of the same
+  products, which the BLAS may add in different orders (``tests/test_ekf_inplace.py`` checks
   ``max |P - P^T| <= 1e-15 max |P|`` over 400 updates at n = 603).
+- the arithmetic of one step (the prediction, ``h`` and ``H``, the gate's
+  ``S_i`` and ``d2_i``, the joint update) runs in the compiled kernels of
+  :mod:`slamlib.kernels`; this module keeps the logic (association, gate
+  decisions, reports, hooks) in Python.
 - a new landmark costs O(n): the state lives in preallocated arrays whose
   capacity doubles when it runs out, so adding N landmarks one by one costs
   O(N) reallocations of amortised O(n^2) in total, not one per landmark.
