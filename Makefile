@@ -63,6 +63,11 @@ runs: $(STAMP)
 studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
+## Chapter 06's study of every gated reading into data/studies/ch06_gate.json (bit for bit; ~4 min)
+.PHONY: gate-study
+gate-study: $(STAMP)
+	$(PY) tools/make_gate_study.py --workers 2
+
 ## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit)
 association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
