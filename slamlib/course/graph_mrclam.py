@@ -22,7 +22,7 @@ long blind stretches count as well. These times are not chapter 10's (every filt
 step), so the EKF's ATE here differs from chapter 10's table. Per estimate:
 the position ATE, the final position error, the mean pose NEES over those times,
 the map's RMS error against Vicon's landmarks. Per smoothed estimate also: how
-many readings end more than ``ROBUST_K`` whitened sigmas from the solution (the
+many readings end with a Mahalanobis distance above ``ROBUST_K`` from the solution (the
 ones a Huber kernel down-weights) and how many of those chapter 10 flagged as
 outliers against Vicon. Per estimate also a profile every :data:`PROFILE_STEP` s (NEES,
 heading error and its sigma), and for the EKFs the readings they fused beyond

@@ -25,7 +25,7 @@ readings its gate rejects): only their linearisation differs.
 ``make graph-study`` (``python -m slamlib.course.graph_study``) stores the
 numbers in ``data/studies/graph_arena.json`` (rounded to 6 significant
 digits, no timings: bit for bit the same on every regeneration, whatever the
-number of worker processes); ``tests/test_graph_study.py`` recomputes a sample
+number of worker processes); ``tests/test_graph_course.py`` recomputes a sample
 of seeds and compares.
 """
 
