@@ -37,7 +37,8 @@ from .models import wrap_angle
 from .validate import as_finite_scalar
 
 __all__ = ["pose_error", "mahalanobis2", "nees", "nis", "chi2_quantile", "chi2_band",
-           "average_nees", "MeanInterval", "mean_interval", "ate", "ATE", "kl_gaussian"]
+           "average_nees", "MeanInterval", "mean_interval", "SeedSpread", "seed_spread", "ate",
+           "ATE", "kl_gaussian"]
 
 
 def _as_array(name: str, value, min_ndim: int) -> np.ndarray:
@@ -254,6 +255,60 @@ def mean_interval(values, level: float = 0.95, n_boot: int = 4000, seed: int = 0
         means[a:b] = v[rng.integers(0, v.size, size=(b - a, v.size))].mean(axis=1)
     lo, hi = np.quantile(means, [(1.0 - p) / 2.0, (1.0 + p) / 2.0])
     return MeanInterval(float(v.mean()), float(np.median(v)), float(lo), float(hi))
+
+
+class SeedSpread(NamedTuple):
+    """How one figure spreads over seeded runs (:func:`seed_spread`): the mean with its
+    standard error and bootstrap interval, the median, the largest runs and the mean
+    without the largest (how much one run weighs)."""
+
+    mean: float
+    se: float
+    median: float
+    lo: float
+    hi: float
+    top: tuple                  # ((seed, value), ...), the largest values first
+    mean_without_top: float
+
+    @property
+    def interval(self) -> tuple[float, float]:
+        return self.lo, self.hi
+
+    @property
+    def top_seed(self) -> int:
+        return self.top[0][0]
+
+    @property
+    def top_value(self) -> float:
+        return self.top[0][1]
+
+    @property
+    def dominated(self) -> bool:
+        """True when leaving the largest run out moves the mean by more than half the
+        distance from the mean to the interval's lower end (one run carries the mean)."""
+        return self.mean - self.mean_without_top > 0.5 * (self.mean - self.lo)
+
+    def __str__(self) -> str:
+        tops = ", ".join(f"{s} ({v:.3g})" for s, v in self.top)
+        return (f"mean {self.mean:.2f} +- {self.se:.2f} (95 % bootstrap {self.lo:.2f} to "
+                f"{self.hi:.2f}), median {self.median:.2f}; largest: {tops}; mean without "
+                f"{self.top_seed}: {self.mean_without_top:.2f}")
+
+
+def seed_spread(values, seeds, n_top: int = 3, level: float = 0.95, n_boot: int = 4000,
+                seed: int = 0) -> SeedSpread:
+    """The :class:`SeedSpread` of ``values``, one per run of ``seeds`` (the chapters' way to
+    quote a 100-run figure: :func:`mean_interval` with the runs that carry it)."""
+    v = np.asarray(values, dtype=float)
+    seeds = np.asarray(seeds)
+    if seeds.shape != v.shape:
+        raise ValueError(f"seeds: expected one seed per value ({v.shape}), got {seeds.shape}")
+    r = mean_interval(v, level=level, n_boot=n_boot, seed=seed)
+    order = np.argsort(-v, kind="stable")
+    return SeedSpread(mean=r.mean, se=float(v.std(ddof=1) / np.sqrt(v.size)), median=r.median,
+                      lo=r.lo, hi=r.hi,
+                      top=tuple((int(seeds[i]), float(v[i])) for i in order[:n_top]),
+                      mean_without_top=float(np.delete(v, order[0]).mean()))
 
 
 class ATE(NamedTuple):

@@ -67,26 +67,6 @@ def test_save_and_load_round_trip(tmp_path, stored):
         graph_study.Study({"format": "other"})
 
 
-def test_bootstrap_interval_matches_the_normal_interval_and_covers():
-    rng = np.random.default_rng(11)
-    v = rng.normal(3.0, 2.0, 400)
-    lo, hi = graph_study.bootstrap_interval(v)
-    half = 1.959964 * v.std(ddof=1) / np.sqrt(v.size)      # the central limit theorem's
-    assert lo == pytest.approx(v.mean() - half, abs=0.1 * half)
-    assert hi == pytest.approx(v.mean() + half, abs=0.1 * half)
-    assert graph_study.bootstrap_interval(v) == (lo, hi)      # seeded: the same interval
-    # coverage of the true mean of a skewed law (exponential, mean 1), 300 samples of 60
-    hits = [lo_ <= 1.0 <= hi_ for lo_, hi_ in
-            (graph_study.bootstrap_interval(rng.exponential(1.0, 60), n_boot=1000, seed=k)
-             for k in range(300))]
-    assert 0.89 <= np.mean(hits) <= 0.98
-    for bad in ([1.0], [1.0, np.nan], np.ones((3, 2))):
-        with pytest.raises(ValueError, match="values"):
-            graph_study.bootstrap_interval(bad)
-    with pytest.raises(ValueError, match="prob"):
-        graph_study.bootstrap_interval(v, prob=1.0)
-
-
 def test_spread_names_the_seeds_that_dominate(stored):
     v = np.array([1.0, 2.0, 30.0, 3.0, 2.0])
     s = graph_study.spread(v, [10, 11, 12, 13, 14])

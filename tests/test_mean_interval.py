@@ -63,3 +63,26 @@ def test_same_seed_same_numbers_other_seed_other_numbers():
 def test_bad_input_names_the_argument(kwargs, word):
     with pytest.raises(ValueError, match=word):
         mean_interval(**kwargs)
+
+
+def test_mean_interval_covers_the_mean_of_a_skewed_law():
+    """Coverage of the true mean of an exponential law (mean 1), 300 samples of 60."""
+    rng = np.random.default_rng(11)
+    hits = [r.lo <= 1.0 <= r.hi for r in
+            (mean_interval(rng.exponential(1.0, 60), n_boot=1000, seed=k) for k in range(300))]
+    assert 0.89 <= np.mean(hits) <= 0.98
+
+
+def test_seed_spread_names_the_runs_that_carry_the_mean():
+    from slamlib.metrics import seed_spread
+
+    v = np.array([1.0, 2.0, 30.0, 3.0, 2.0])
+    s = seed_spread(v, [10, 11, 12, 13, 14])
+    assert s.top == ((12, 30.0), (13, 3.0), (11, 2.0)) and s.top_seed == 12
+    assert s.mean == pytest.approx(7.6) and s.median == 2.0
+    assert s.mean_without_top == pytest.approx(2.0) and s.dominated
+    assert s.se == pytest.approx(np.std(v, ddof=1) / np.sqrt(5))
+    assert s.interval == mean_interval(v)[2:]
+    assert not seed_spread(np.random.default_rng(0).normal(5, 1, 100), range(100)).dominated
+    with pytest.raises(ValueError, match="seeds"):
+        seed_spread(v, [1, 2])

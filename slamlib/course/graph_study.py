@@ -33,21 +33,20 @@ from __future__ import annotations
 
 import argparse
 import json
-from dataclasses import dataclass
 from pathlib import Path
 
 import numpy as np
 
 from .. import graph
 from .. import runner as ex
-from ..metrics import chi2_band, nees, pose_error
+from ..metrics import SeedSpread, chi2_band, nees, pose_error, seed_spread
 from ..sim import scenario
 from ..studies import map_jobs, sample_trace
 from ..worlds import DATA_DIR
 from .stored import load_stored
 
 __all__ = ["CASES", "SEEDS", "GRID", "ESTIMATES", "STUDY_FILE", "FORMAT", "run_seed", "study",
-           "save", "load", "Study", "Spread", "spread", "bootstrap_interval", "main"]
+           "save", "load", "Study", "Spread", "spread", "main"]
 
 FORMAT = "slamlib-graph-study/1"
 #: Where ``make graph-study`` writes the study.
@@ -156,62 +155,14 @@ def save(data: dict, path=STUDY_FILE) -> None:
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-def bootstrap_interval(values, prob: float = 0.95, n_boot: int = 4000, seed: int = 0
-                       ) -> tuple[float, float]:
-    """Percentile bootstrap interval of the mean of ``values`` (chapter 11).
-
-    ``n_boot`` resamples of the values with replacement (``numpy.random.default_rng(seed)``),
-    the mean of each; the interval is their ``(1 - prob) / 2`` and ``(1 + prob) / 2``
-    quantiles. Same values and seed, same interval.
-    """
-    v = np.asarray(values, dtype=float)
-    if v.ndim != 1 or v.size < 2 or not np.all(np.isfinite(v)):
-        raise ValueError(f"values: expected at least 2 finite numbers in a 1-D array, got "
-                         f"shape {v.shape}")
-    if not 0.0 < prob < 1.0:
-        raise ValueError(f"prob: expected a probability in (0, 1), got {prob!r}")
-    if int(n_boot) < 100:
-        raise ValueError(f"n_boot: expected at least 100 resamples, got {n_boot!r}")
-    rng = np.random.default_rng(seed)
-    means = v[rng.integers(0, v.size, (int(n_boot), v.size))].mean(axis=1)
-    lo, hi = np.quantile(means, [(1.0 - prob) / 2.0, (1.0 + prob) / 2.0])
-    return float(lo), float(hi)
-
-
-@dataclass(frozen=True)
-class Spread:
-    """How one figure spreads over the seeds: its mean with the standard error and a
-    bootstrap interval, its median, the seeds with the largest values, and the mean
-    without the largest one (how much one run weighs)."""
-
-    mean: float
-    se: float
-    interval: tuple[float, float]
-    median: float
-    top: tuple[tuple[int, float], ...]
-    mean_without_top: float
-
-    def __str__(self) -> str:
-        lo, hi = self.interval
-        tops = ", ".join(f"{s} ({v:.3g})" for s, v in self.top)
-        return (f"mean {self.mean:.2f} +- {self.se:.2f} (95 % bootstrap {lo:.2f} to {hi:.2f}), "
-                f"median {self.median:.2f}; largest: {tops}; mean without {self.top[0][0]}: "
-                f"{self.mean_without_top:.2f}")
+#: How one figure spreads over the seeds (:func:`spread`).
+Spread = SeedSpread
 
 
 def spread(values, seeds, n_top: int = 3, prob: float = 0.95, n_boot: int = 4000,
-           seed: int = 0) -> Spread:
-    """The :class:`Spread` of ``values`` (one per seed of ``seeds``)."""
-    v = np.asarray(values, dtype=float)
-    seeds = np.asarray(seeds)
-    if seeds.shape != v.shape:
-        raise ValueError(f"seeds: expected one seed per value ({v.shape}), got {seeds.shape}")
-    lo, hi = bootstrap_interval(v, prob, n_boot, seed)
-    order = np.argsort(-v, kind="stable")
-    return Spread(mean=float(v.mean()), se=float(v.std(ddof=1) / np.sqrt(v.size)),
-                  interval=(lo, hi), median=float(np.median(v)),
-                  top=tuple((int(seeds[i]), float(v[i])) for i in order[:n_top]),
-                  mean_without_top=float(np.delete(v, order[0]).mean()))
+           seed: int = 0) -> SeedSpread:
+    """The :class:`~slamlib.metrics.SeedSpread` of ``values`` (one per seed of ``seeds``)."""
+    return seed_spread(values, seeds, n_top=n_top, level=prob, n_boot=n_boot, seed=seed)
 
 
 class Study:

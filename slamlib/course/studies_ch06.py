@@ -21,12 +21,11 @@ from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
 from dataclasses import dataclass
-from typing import NamedTuple
 
 import numpy as np
 
 from .. import runner as ex
-from ..metrics import chi2_band, chi2_quantile, mean_interval
+from ..metrics import SeedSpread, chi2_band, chi2_quantile, seed_spread
 from ..runs import Run
 from ..studies import NEESStudy, map_jobs, monte_carlo
 from .stored import load_stored
@@ -442,35 +441,14 @@ def load_gate_study(path=None) -> dict:
 
 
 # --------------------------------------------------------------------------- quoting a mean
-class RobustSummary(NamedTuple):
-    """A column of per-seed values (:func:`robust_summary`)."""
-
-    mean: float
-    median: float
-    lo: float
-    hi: float
-    top_seed: int
-    top_value: float
-    mean_without_top: float
-
-    @property
-    def dominated(self) -> bool:
-        """True when leaving the largest run out moves the mean by more than half the
-        distance from the mean to the interval's lower end (one run carries the mean)."""
-        return self.mean - self.mean_without_top > 0.5 * (self.mean - self.lo)
+#: A column of per-seed values as chapter 06 quotes it (:func:`robust_summary`).
+RobustSummary = SeedSpread
 
 
-def robust_summary(values, seeds, level: float = 0.95) -> RobustSummary:
-    """Mean, median and bootstrap interval (:func:`slamlib.metrics.mean_interval`, seed 0) of
+def robust_summary(values, seeds, level: float = 0.95) -> SeedSpread:
+    """Mean, median and bootstrap interval (:func:`slamlib.metrics.seed_spread`, seed 0) of
     ``values``, with the seed of the largest value and the mean without it."""
-    v = np.asarray(values, dtype=float)
-    seeds = np.asarray(seeds)
-    if seeds.shape != v.shape:
-        raise ValueError(f"seeds: expected one seed per value ({v.shape}), got {seeds.shape}")
-    r = mean_interval(v, level=level)
-    i = int(np.argmax(v))
-    return RobustSummary(r.mean, r.median, r.lo, r.hi, int(seeds[i]), float(v[i]),
-                         float(np.delete(v, i).mean()))
+    return seed_spread(values, seeds, level=level)
 
 
 def column_summary(summary: dict, field: str = "mean_nees") -> RobustSummary:
