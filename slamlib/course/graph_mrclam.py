@@ -71,12 +71,10 @@ FILTERED = ("ekf", "ekf_ungated", "isam2_online")
 #: A pose node also after this many filter steps without a camera frame (about 1 s on
 #: these logs), so that the blind stretches are judged too.
 MAX_STEPS = 100
-#: The robust kernels' threshold on a reading's Mahalanobis distance ``d = sqrt(e^T R^-1 e)``
-#: (GTSAM's robust noise model weighs the whole 2-vector by its whitened norm):
-#: ``sqrt(chi2_2^-1(0.95)) = sqrt(-2 ln 0.05) = 2.448``, so that a reading that fits its R is
-#: beyond it with probability 0.05. (Huber's 1.345 is a constant for a 1-D residual; for
-#: the norm of a 2-D one, ``P(d > 1.345) = exp(-1.345^2 / 2) = 0.40``.)
-ROBUST_K = float(np.sqrt(-2.0 * np.log(0.05)))
+#: The robust kernels' threshold on a reading's Mahalanobis distance: the library's
+#: :data:`slamlib.graph.ROBUST_K`, ``sqrt(chi2_2^-1(0.95)) = 2.448`` (Huber's 1.345 is a
+#: constant for a 1-D residual; for the norm of a 2-D one ``P(d > 1.345) = 0.40``).
+ROBUST_K = graph.ROBUST_K
 #: The profile of each estimate is sampled every this many seconds from the log's start.
 PROFILE_STEP = 10.0
 _DIGITS = 6
