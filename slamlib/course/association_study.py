@@ -9,7 +9,11 @@
   association rate, rejected readings), in a process pool whose answer does
   not depend on the number of workers; :func:`save_study` / :func:`load_study`
   store it as JSON (``make association-study`` writes
-  ``data/studies/association_study.json``; a test recomputes a sample).
+  ``data/studies/association_study.json``; a test recomputes a sample);
+- :func:`drift_row` / :func:`drift_study`: the whole loop with three times the
+  wheel slip (``sigma_wheel`` 0.06, seeds 1-100; seed 1 is the chapter's drifted
+  run), ids / NN / JCBB at gates 0.95 and 0.99, scored before and after the loop
+  closure (``data/studies/association_drift.json``, the same make target).
 """
 
 from __future__ import annotations
@@ -30,13 +34,24 @@ from .stored import load_stored
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
-           "crowded_frame"]
+           "crowded_frame", "drift_row", "drift_study", "load_drift_study", "DRIFT_PATH",
+           "DRIFT_SETTINGS"]
 
 #: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
 STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
 #: The study's settings: the arena re-simulated with clutter, the first 30 s (first lap).
 STUDY_SETTINGS = {"scenario": "arena_loop", "p_outlier": 0.1, "max_time": 30.0,
                   "seeds": list(range(2000, 2100)), "methods": ["ids", "nn", "jcbb"]}
+#: Where ``make association-study`` stores the drifted full loops of chapter 09, section 7.
+DRIFT_PATH = STUDY_PATH.with_name("association_drift.json")
+#: The drift study: the whole arena loop, three times the wheel slip, no clutter; seed 1 is
+#: ``scenario("arena_loop", sigma_wheel=0.06)``. ``closure_time``: the scores before/after it
+#: (the robot sees 21 and 31 again at about 48 s); ``probe_time``: the pose error and NEES
+#: just before the closure.
+DRIFT_SETTINGS = {"scenario": "arena_loop", "sigma_wheel": 0.06, "seeds": list(range(1, 101)),
+                  "configs": [["ids", 0.95], ["nn", 0.95], ["jcbb", 0.95], ["nn", 0.99],
+                              ["jcbb", 0.99]],
+                  "closure_time": 40.0, "probe_time": 47.0}
 
 
 def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: float = 0.95,
@@ -205,12 +220,61 @@ def load_study(path=STUDY_PATH) -> tuple[dict, list[dict]]:
     return d["settings"], d["rows"]
 
 
-if __name__ == "__main__":  # python -m slamlib.course.association_study [OUT.json]
+def drift_row(seed: int, method: str, gate: float, settings: dict = DRIFT_SETTINGS) -> dict:
+    """One drifted loop: the association's counts in all and after ``closure_time``, the
+    duplicates, ATE, final position error, time-averaged pose NEES, and the position error
+    and pose NEES at ``probe_time`` (just before the loop closure)."""
+    from ..sim import scenario
+
+    run = scenario(settings["scenario"], seed=int(seed), sigma_wheel=settings["sigma_wheel"])
+    filt = make_filter(run, method, gate=gate)
+    tr, tid = run_without_ids(run, filt)
+    sc = association_errors(tr, tid)
+    late = [k for k, (t, _) in enumerate(tr.reports) if t > settings["closure_time"]]
+    wrong_late = 0
+    for k in late:
+        rep = tr.reports[k][1]
+        for i, t in enumerate(tid[k]):
+            if rep.accepted[i] and not rep.new[i] and int(t) >= 0:
+                wrong_late += sc.label[int(rep.matched[i])] != int(t)
+    kp = int(np.searchsorted(tr.t, settings["probe_time"]))
+    return {"seed": int(seed), "method": method, "gate": float(gate),
+            "wrong": sc.wrong, "wrong_late": int(wrong_late), "fused": sc.fused,
+            "rejected": sc.rejected, "duplicates": sc.duplicates,
+            "landmarks": int(filt.n_landmarks),
+            "ate": round(float(ate(tr.x, tr.truth).position), 6),
+            "final_error": round(float(np.hypot(*tr.error[-1, :2])), 6),
+            "nees": round(float(np.mean(tr.nees)), 6),
+            "probe_error": round(float(np.hypot(*tr.error[kp, :2])), 6),
+            "probe_nees": round(float(tr.nees[kp]), 6)}
+
+
+def _drift(args):
+    return drift_row(*args)
+
+
+def drift_study(settings: dict = DRIFT_SETTINGS, workers: int = 2) -> list[dict]:
+    """Every (seed, config) of the drift study, in that order (the same for any ``workers``)."""
+    jobs = [(s, m, g, settings) for s in settings["seeds"] for m, g in settings["configs"]]
+    return map_jobs(_drift, jobs, max(int(workers), 1))
+
+
+def load_drift_study(path=DRIFT_PATH) -> tuple[dict, list[dict]]:
+    """``(settings, rows)`` of the stored drift study."""
+    d = load_stored(path, "association-study")
+    return d["settings"], d["rows"]
+
+
+if __name__ == "__main__":  # python -m slamlib.course.association_study [first|drift|both]
     import sys
 
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else STUDY_PATH
-    save_study(study(), out)
-    print(f"wrote {out}")
+    which = sys.argv[1] if len(sys.argv) > 1 else "both"
+    if which in ("first", "both"):
+        save_study(study(), STUDY_PATH)
+        print(f"wrote {STUDY_PATH}")
+    if which in ("drift", "both"):
+        save_study(drift_study(), DRIFT_PATH, DRIFT_SETTINGS)
+        print(f"wrote {DRIFT_PATH}")
 
 
 def crowded_frame(k: int, spacing: float, clutter: float = 0.0, seed: int = 0):
