@@ -64,7 +64,8 @@ studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
 ## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit); also the
-## drifted loops (association_drift.json); about 4 + 4 min on 2 cores
+## drifted loops (association_drift.json) and the dense worlds (association_dense.json); about
+## 4 + 4 + 3 min on 2 cores
 association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
 

@@ -336,6 +336,19 @@ def test_stored_drift_study_is_regenerated_by_the_code():
     assert all(0 <= r["wrong_late"] <= r["wrong"] <= r["fused"] for r in rows)
 
 
+def test_stored_dense_study_is_regenerated_by_the_code():
+    # data/studies/association_dense.json (`make association-study`): 100 dense random worlds;
+    # recompute two of them (seed 1 is chapter 09's world), both methods, row for row
+    from slamlib.course.association_study import dense_row, load_dense_study
+
+    settings, rows = load_dense_study()
+    assert len(rows) == len(settings["seeds"]) * len(settings["methods"]) >= 200
+    for seed in (settings["seeds"][0], settings["seeds"][41]):
+        for m in settings["methods"]:
+            stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
+            assert dense_row(seed, m, settings) == stored
+
+
 def test_confirmed_slam_without_ids_errors_and_copies():
     import copy
 

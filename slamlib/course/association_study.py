@@ -13,7 +13,10 @@
 - :func:`drift_row` / :func:`drift_study`: the whole loop with three times the
   wheel slip (``sigma_wheel`` 0.06, seeds 1-100; seed 1 is the chapter's drifted
   run), ids / NN / JCBB at gates 0.95 and 0.99, scored before and after the loop
-  closure (``data/studies/association_drift.json``, the same make target).
+  closure (``data/studies/association_drift.json``, the same make target);
+- :func:`dense_run` / :func:`dense_row` / :func:`dense_study`: a random world of
+  200 markers 8 cm apart, one world and one drive per seed (seed 1 is the
+  chapter's), NN and JCBB (``data/studies/association_dense.json``).
 """
 
 from __future__ import annotations
@@ -35,7 +38,8 @@ from .stored import load_stored
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
            "crowded_frame", "drift_row", "drift_study", "load_drift_study", "DRIFT_PATH",
-           "DRIFT_SETTINGS"]
+           "DRIFT_SETTINGS", "dense_run", "dense_row", "dense_study", "load_dense_study",
+           "DENSE_PATH", "DENSE_SETTINGS"]
 
 #: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
 STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
@@ -52,6 +56,13 @@ DRIFT_SETTINGS = {"scenario": "arena_loop", "sigma_wheel": 0.06, "seeds": list(r
                   "configs": [["ids", 0.95], ["nn", 0.95], ["jcbb", 0.95], ["nn", 0.99],
                               ["jcbb", 0.99]],
                   "closure_time": 40.0, "probe_time": 47.0}
+#: Where ``make association-study`` stores the dense random worlds of chapter 09, section 7.
+DENSE_PATH = STUDY_PATH.with_name("association_dense.json")
+#: The dense worlds: ``count`` markers at least ``min_spacing`` apart in ``extent``, one loop of
+#: ``max_duration`` s; seed s draws the world and the drive (seed 1 is the chapter's world).
+DENSE_SETTINGS = {"extent": [0.0, 6.0, -3.0, 3.0], "count": 200, "min_spacing": 0.08,
+                  "sigma_wheel": 0.02, "max_duration": 25.0, "seeds": list(range(1, 101)),
+                  "methods": ["nn", "jcbb"]}
 
 
 def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: float = 0.95,
@@ -265,16 +276,62 @@ def load_drift_study(path=DRIFT_PATH) -> tuple[dict, list[dict]]:
     return d["settings"], d["rows"]
 
 
-if __name__ == "__main__":  # python -m slamlib.course.association_study [first|drift|both]
+def dense_run(seed: int, settings: dict = DENSE_SETTINGS) -> Run:
+    """The dense world of ``seed`` and one loop through it (analytic sensor, no clutter)."""
+    from ..sensors import AnalyticMarkerSensor
+    from ..sim import KobukiParams, WaypointController, loop_waypoints, simulate
+    from ..worlds import random_world
+
+    world = random_world(extent=tuple(settings["extent"]), count=settings["count"],
+                         min_spacing=settings["min_spacing"], seed=int(seed))
+    wp = loop_waypoints(world.bounds, margin=1.0)
+    return simulate(world, WaypointController(wp[1:]), sensor=AnalyticMarkerSensor(),
+                    seed=int(seed), params=KobukiParams(sigma_wheel=settings["sigma_wheel"]),
+                    start_pose=[wp[0, 0], wp[0, 1], -np.pi / 2], name=f"dense_{settings['count']}",
+                    max_duration=settings["max_duration"])
+
+
+def dense_row(seed: int, method: str, settings: dict = DENSE_SETTINGS) -> dict:
+    """One dense world: the association's counts, the map's size and the ATE."""
+    run = dense_run(seed, settings)
+    filt = make_filter(run, method)
+    tr, tid = run_without_ids(run, filt)
+    sc = association_errors(tr, tid)
+    return {"seed": int(seed), "method": method, "wrong": sc.wrong, "fused": sc.fused,
+            "rejected": sc.rejected, "duplicates": sc.duplicates,
+            "landmarks": int(filt.n_landmarks),
+            "ate": round(float(np.sqrt(np.mean(np.sum(tr.error[:, :2] ** 2, axis=1)))), 6)}
+
+
+def _dense(args):
+    return dense_row(*args)
+
+
+def dense_study(settings: dict = DENSE_SETTINGS, workers: int = 2) -> list[dict]:
+    """Every (seed, method) of the dense study, in that order (the same for any ``workers``)."""
+    jobs = [(s, m, settings) for s in settings["seeds"] for m in settings["methods"]]
+    return map_jobs(_dense, jobs, max(int(workers), 1))
+
+
+def load_dense_study(path=DENSE_PATH) -> tuple[dict, list[dict]]:
+    """``(settings, rows)`` of the stored dense study."""
+    d = load_stored(path, "association-study")
+    return d["settings"], d["rows"]
+
+
+if __name__ == "__main__":  # python -m slamlib.course.association_study [first|drift|dense|all]
     import sys
 
-    which = sys.argv[1] if len(sys.argv) > 1 else "both"
-    if which in ("first", "both"):
+    which = sys.argv[1] if len(sys.argv) > 1 else "all"
+    if which in ("first", "all"):
         save_study(study(), STUDY_PATH)
         print(f"wrote {STUDY_PATH}")
-    if which in ("drift", "both"):
+    if which in ("drift", "all"):
         save_study(drift_study(), DRIFT_PATH, DRIFT_SETTINGS)
         print(f"wrote {DRIFT_PATH}")
+    if which in ("dense", "all"):
+        save_study(dense_study(), DENSE_PATH, DENSE_SETTINGS)
+        print(f"wrote {DENSE_PATH}")
 
 
 def crowded_frame(k: int, spacing: float, clutter: float = 0.0, seed: int = 0):
