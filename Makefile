@@ -7,7 +7,7 @@ NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
         student runs lab bench clean studies evidence association-study graph-study \
-        graph-mrclam
+        graph-mrclam gate-study
 
 venv: $(STAMP)
 
@@ -63,7 +63,12 @@ runs: $(STAMP)
 studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
-## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit)
+## Chapter 06's study of every gated reading into data/studies/ch06_gate.json (bit for bit)
+gate-study: $(STAMP)
+	$(PY) tools/make_gate_study.py --workers 2
+
+## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit); also the
+## drifted loops (association_drift.json) and the dense worlds (association_dense.json)
 association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
 

@@ -40,8 +40,11 @@ the smallest ``D2``. Branches are cut when they cannot beat the best so far
 equal pairs and a ``D2`` already not smaller: ``D2`` never decreases as pairs
 are added). As in the paper, joint compatibility is tested at every
 extension, i.e. every prefix of the answer (in reading order) is jointly
-compatible. ``D2`` is updated incrementally with a Cholesky factor (O(m^2) per
-node).
+compatible. ``D2`` is updated incrementally with a Cholesky factor ``L`` of
+``S_H``: each node solves ``L B^T = C_q`` with a general ``np.linalg.solve``
+(O(m^3); a triangular solve would be O(m^2)) and copies ``L`` into the
+enlarged factor (O(m^2)); for the few pairs of one frame the node's cost is
+numpy's call overhead.
 
 The bound on the search: ``max_nodes`` nodes (default 10 000). The first leaf
 of the depth-first search is the sequential nearest neighbour (each reading,

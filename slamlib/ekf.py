@@ -855,10 +855,7 @@ class _EKFBase:
         """``P_rm <- (I + c e_3^T) P_rm`` for the pending ``c`` of :meth:`_predict_shear`."""
         a, b = self._shear
         self._shear = None
-        P, n = self._Pbuf, self._n
-        P[0, 3:n] += a * P[2, 3:n]
-        P[1, 3:n] += b * P[2, 3:n]
-        P[3:n, :2] = P[:2, 3:n].T
+        _kernels.apply_shear(self._Pbuf, self._n, a, b)
 
     def _blocks(self, slots: np.ndarray) -> np.ndarray:
         """State indices ``(m, c)`` of the robot and of each reading's landmark."""

@@ -59,7 +59,7 @@ __all__ = ["pose_to_gtsam", "pose_from_gtsam", "pose_cov_to_gtsam", "pose_cov_fr
            "point_to_gtsam", "point_from_gtsam", "point_cov_to_gtsam", "point_cov_from_gtsam",
            "reading_to_gtsam", "integrate_odometry", "Odometry", "Problem", "build_problem",
            "factor_graph", "smooth", "GraphMap", "GraphTrace", "information_matrix", "METHODS",
-           "ROBUST", "batch_marginals"]
+           "ROBUST", "ROBUST_K", "batch_marginals"]
 
 #: The solvers of :func:`smooth`.
 METHODS = ("batch", "isam2")
@@ -342,7 +342,15 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
                    odometry=odometry, readings=[stack(r) for r in readings], wheel_base=b)
 
 
-def _noise(cov: np.ndarray, robust: str | None = None, k: float = 1.345):
+#: The robust kernels' default threshold on a reading's Mahalanobis distance
+#: ``d = sqrt(e^T R^-1 e)`` (GTSAM's robust noise model weighs the whole 2-vector by its
+#: whitened norm): ``sqrt(chi2_2^-1(0.95)) = sqrt(-2 ln 0.05) = 2.448``, so that a reading
+#: that fits its R lies beyond it with probability 0.05. Huber's usual 1.345 is a constant
+#: for a 1-D residual: for the norm of a 2-D one, ``P(d > 1.345) = exp(-1.345^2/2) = 0.40``.
+ROBUST_K = float(np.sqrt(-2.0 * np.log(0.05)))
+
+
+def _noise(cov: np.ndarray, robust: str | None = None, k: float = ROBUST_K):
     base = gtsam.noiseModel.Gaussian.Covariance(np.asarray(cov, dtype=float))
     if robust is None:
         return base
@@ -373,7 +381,7 @@ def _node_factors(problem: Problem, i: int, robust, robust_k) -> gtsam.Nonlinear
     return g
 
 
-def factor_graph(problem: Problem, *, robust: str | None = None, robust_k: float = 1.345
+def factor_graph(problem: Problem, *, robust: str | None = None, robust_k: float = ROBUST_K
                  ) -> gtsam.NonlinearFactorGraph:
     """The whole graph of ``problem`` (GTSAM's z-up frame)."""
     g = gtsam.NonlinearFactorGraph()
@@ -551,7 +559,7 @@ def batch_marginals(graph: gtsam.NonlinearFactorGraph, values: gtsam.Values,
 def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
            by: str = "capture", use_sensor_R: bool = True, max_time: float | None = None,
            max_steps: int | None = None, odometry_floor: float = 1e-10,
-           min_interval: float = 0.0, robust: str | None = None, robust_k: float = 1.345,
+           min_interval: float = 0.0, robust: str | None = None, robust_k: float = ROBUST_K,
            relinearize_threshold: float = 0.01, final_iterations: int = 3) -> GraphTrace:
     """Smoothing and mapping of a run with GTSAM (chapter 11).
 
@@ -571,7 +579,8 @@ def smooth(run: Run, method: str = "batch", *, Q=None, R=None, P0=DEFAULT_P0,
     max_steps, odometry_floor, min_interval
         See :func:`build_problem`.
     robust : {"huber", "cauchy"}, optional
-        A robust kernel (threshold ``robust_k`` in sigmas) on the readings.
+        A robust kernel on the readings, with the threshold ``robust_k`` on their
+        Mahalanobis distance (default :data:`ROBUST_K`, 2.448).
     relinearize_threshold : float
         iSAM2: re-linearise a variable whose update exceeds this.
 

@@ -114,6 +114,16 @@ def predict_pose(x, P, Q, V_R: float, V_L: float, dt: float, b: float):
 
 
 @njit(cache=True)
+def apply_shear(P, n: int, a: float, b: float) -> None:
+    """``P_rm <- (I + c e_3^T) P_rm`` for ``c = [a, b, 0]``, and ``P_mr = P_rm^T`` (O(n)):
+    rows 0 and 1 of ``P_rm`` gain ``a`` and ``b`` times row 2."""
+    for j in range(3, n):
+        P[0, j] += a * P[2, j]
+        P[1, j] += b * P[2, j]
+        P[j, 0], P[j, 1] = P[0, j], P[1, j]
+
+
+@njit(cache=True)
 def predict_poses(x, P, Q, u, dt, b: float, has_shear: bool, sa: float, sb: float,
                   poses, covs):
     """:func:`predict_pose` for each row of ``u`` (k, 2) and ``dt`` (k,), in order.

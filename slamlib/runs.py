@@ -163,9 +163,10 @@ class CameraRows:
         z = np.column_stack([self.rho, self.bearing])
         z_true = np.column_stack([self.true_rho, self.true_bearing])
         t_cap, t_arr = self.t_capture[starts].tolist(), self.t_arrival[starts].tolist()
+        # the rows were checked when made: each frame is made of their slices as they are
+        make = Observations._of_checked
         for i, (a, b) in enumerate(zip(starts.tolist(), ends.tolist())):
-            out.append(Observations(t_cap[i], ids[a:b], z[a:b], true_ids[a:b], z_true[a:b],
-                                    t_arrival=t_arr[i]))
+            out.append(make(t_cap[i], ids[a:b], z[a:b], true_ids[a:b], z_true[a:b], t_arr[i]))
         return out
 
 

@@ -95,6 +95,16 @@ class Observations:
         return int(self.ids.shape[0])
 
     @classmethod
+    def _of_checked(cls, t: float, ids: np.ndarray, z: np.ndarray, true_ids: np.ndarray,
+                    z_true: np.ndarray | None, t_arrival: float | None) -> Observations:
+        """A frame from arrays already of the right types and shapes (int64 (k,), float
+        (k, 2)), e.g. slices of checked camera rows: the same object, without the checks."""
+        obs = object.__new__(cls)
+        obs.t, obs.ids, obs.z, obs.true_ids = t, ids, z, true_ids
+        obs.z_true, obs.t_arrival = z_true, t_arrival
+        return obs
+
+    @classmethod
     def empty(cls, t: float = float("nan")) -> Observations:
         """A frame with no reading."""
         return cls(t, np.zeros(0, np.int64), np.zeros((0, 2)), np.zeros(0, np.int64),

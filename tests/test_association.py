@@ -319,6 +319,36 @@ def test_stored_study_is_regenerated_by_the_code():
             assert study_row(seed, m, settings) == stored
 
 
+def test_stored_drift_study_is_regenerated_by_the_code():
+    # data/studies/association_drift.json (`make association-study`): recompute two seeds, every
+    # (method, gate), row for row; seed 1 is chapter 09's drifted run (scenario's default seed)
+    from slamlib.course.association_study import drift_row, load_drift_study
+
+    settings, rows = load_drift_study()
+    assert len(rows) == len(settings["seeds"]) * len(settings["configs"]) >= 500
+    assert settings["seeds"][0] == 1
+    for seed in (settings["seeds"][0], settings["seeds"][63]):
+        for m, g in settings["configs"]:
+            stored = next(r for r in rows if r["seed"] == seed and r["method"] == m
+                          and r["gate"] == g)
+            assert drift_row(seed, m, g, settings) == stored
+    # the scoring after the closure is a part of the whole: never more wrong late than in all
+    assert all(0 <= r["wrong_late"] <= r["wrong"] <= r["fused"] for r in rows)
+
+
+def test_stored_dense_study_is_regenerated_by_the_code():
+    # data/studies/association_dense.json (`make association-study`): 100 dense random worlds;
+    # recompute two of them (seed 1 is chapter 09's world), both methods, row for row
+    from slamlib.course.association_study import dense_row, load_dense_study
+
+    settings, rows = load_dense_study()
+    assert len(rows) == len(settings["seeds"]) * len(settings["methods"]) >= 200
+    for seed in (settings["seeds"][0], settings["seeds"][41]):
+        for m in settings["methods"]:
+            stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
+            assert dense_row(seed, m, settings) == stored
+
+
 def test_confirmed_slam_without_ids_errors_and_copies():
     import copy
 

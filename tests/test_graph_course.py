@@ -65,3 +65,19 @@ def test_save_and_load_round_trip(tmp_path, stored):
     assert back.data == small
     with pytest.raises(ValueError, match="format"):
         graph_study.Study({"format": "other"})
+
+
+def test_spread_names_the_seeds_that_dominate(stored):
+    v = np.array([1.0, 2.0, 30.0, 3.0, 2.0])
+    s = graph_study.spread(v, [10, 11, 12, 13, 14])
+    assert s.top == ((12, 30.0), (13, 3.0), (11, 2.0))
+    assert s.mean == pytest.approx(7.6) and s.median == 2.0
+    assert s.mean_without_top == pytest.approx(2.0)
+    assert s.se == pytest.approx(np.std(v, ddof=1) / np.sqrt(5))
+    with pytest.raises(ValueError, match="seeds"):
+        graph_study.spread(v, [1, 2])
+    # a paired spread is the spread of the seed-by-seed difference
+    d = stored.spread("nominal", "ekf", minus="ekf_ungated")
+    diff = stored.values("nominal", "ekf", "mean_nees") - \
+        stored.values("nominal", "ekf_ungated", "mean_nees")
+    assert d.mean == pytest.approx(diff.mean()) and d.median == pytest.approx(np.median(diff))

@@ -17,6 +17,7 @@ import sys
 import time
 from pathlib import Path
 
+from slamlib.course.stored import write_or_check
 from slamlib.course.studies_ch06 import CH06_SEEDS, CH06_STUDIES, run_study, summarise
 
 ROOT = Path(__file__).resolve().parents[1]
@@ -37,15 +38,7 @@ def build(workers: int) -> str:
 
 
 def main(argv: list[str]) -> int:
-    workers = int(argv[argv.index("--workers") + 1]) if "--workers" in argv else 2
-    text = build(workers)
-    if "--check" in argv:
-        same = OUT.is_file() and OUT.read_text(encoding="utf-8") == text
-        print("stored studies are up to date" if same else f"would change: {OUT}")
-        return 0 if same else 1
-    OUT.parent.mkdir(parents=True, exist_ok=True)
-    OUT.write_text(text, encoding="utf-8")
-    return 0
+    return write_or_check(OUT, build, argv, "the stored studies")
 
 
 if __name__ == "__main__":

@@ -9,7 +9,14 @@
   association rate, rejected readings), in a process pool whose answer does
   not depend on the number of workers; :func:`save_study` / :func:`load_study`
   store it as JSON (``make association-study`` writes
-  ``data/studies/association_study.json``; a test recomputes a sample).
+  ``data/studies/association_study.json``; a test recomputes a sample);
+- :func:`drift_row` / :func:`drift_study`: the whole loop with three times the
+  wheel slip (``sigma_wheel`` 0.06, seeds 1-100; seed 1 is the chapter's drifted
+  run), ids / NN / JCBB at gates 0.95 and 0.99, scored before and after the loop
+  closure (``data/studies/association_drift.json``, the same make target);
+- :func:`dense_run` / :func:`dense_row` / :func:`dense_study`: a random world of
+  200 markers 8 cm apart, one world and one drive per seed (seed 1 is the
+  chapter's), NN and JCBB (``data/studies/association_dense.json``).
 """
 
 from __future__ import annotations
@@ -30,13 +37,32 @@ from .stored import load_stored
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
-           "crowded_frame"]
+           "crowded_frame", "drift_row", "drift_study", "load_drift_study", "DRIFT_PATH",
+           "DRIFT_SETTINGS", "dense_run", "dense_row", "dense_study", "load_dense_study",
+           "DENSE_PATH", "DENSE_SETTINGS"]
 
 #: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
 STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
 #: The study's settings: the arena re-simulated with clutter, the first 30 s (first lap).
 STUDY_SETTINGS = {"scenario": "arena_loop", "p_outlier": 0.1, "max_time": 30.0,
                   "seeds": list(range(2000, 2100)), "methods": ["ids", "nn", "jcbb"]}
+#: Where ``make association-study`` stores the drifted full loops of chapter 09, section 7.
+DRIFT_PATH = STUDY_PATH.with_name("association_drift.json")
+#: The drift study: the whole arena loop, three times the wheel slip, no clutter; seed 1 is
+#: ``scenario("arena_loop", sigma_wheel=0.06)``. ``closure_time``: the scores before/after it
+#: (the robot sees 21 and 31 again at about 48 s); ``probe_time``: the pose error and NEES
+#: just before the closure.
+DRIFT_SETTINGS = {"scenario": "arena_loop", "sigma_wheel": 0.06, "seeds": list(range(1, 101)),
+                  "configs": [["ids", 0.95], ["nn", 0.95], ["jcbb", 0.95], ["nn", 0.99],
+                              ["jcbb", 0.99]],
+                  "closure_time": 40.0, "probe_time": 47.0}
+#: Where ``make association-study`` stores the dense random worlds of chapter 09, section 7.
+DENSE_PATH = STUDY_PATH.with_name("association_dense.json")
+#: The dense worlds: ``count`` markers at least ``min_spacing`` apart in ``extent``, one loop of
+#: ``max_duration`` s; seed s draws the world and the drive (seed 1 is the chapter's world).
+DENSE_SETTINGS = {"extent": [0.0, 6.0, -3.0, 3.0], "count": 200, "min_spacing": 0.08,
+                  "sigma_wheel": 0.02, "max_duration": 25.0, "seeds": list(range(1, 101)),
+                  "methods": ["nn", "jcbb"]}
 
 
 def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: float = 0.95,
@@ -205,12 +231,107 @@ def load_study(path=STUDY_PATH) -> tuple[dict, list[dict]]:
     return d["settings"], d["rows"]
 
 
-if __name__ == "__main__":  # python -m slamlib.course.association_study [OUT.json]
+def drift_row(seed: int, method: str, gate: float, settings: dict = DRIFT_SETTINGS) -> dict:
+    """One drifted loop: the association's counts in all and after ``closure_time``, the
+    duplicates, ATE, final position error, time-averaged pose NEES, and the position error
+    and pose NEES at ``probe_time`` (just before the loop closure)."""
+    from ..sim import scenario
+
+    run = scenario(settings["scenario"], seed=int(seed), sigma_wheel=settings["sigma_wheel"])
+    filt = make_filter(run, method, gate=gate)
+    tr, tid = run_without_ids(run, filt)
+    sc = association_errors(tr, tid)
+    late = [k for k, (t, _) in enumerate(tr.reports) if t > settings["closure_time"]]
+    wrong_late = 0
+    for k in late:
+        rep = tr.reports[k][1]
+        for i, t in enumerate(tid[k]):
+            if rep.accepted[i] and not rep.new[i] and int(t) >= 0:
+                wrong_late += sc.label[int(rep.matched[i])] != int(t)
+    kp = int(np.searchsorted(tr.t, settings["probe_time"]))
+    return {"seed": int(seed), "method": method, "gate": float(gate),
+            "wrong": sc.wrong, "wrong_late": int(wrong_late), "fused": sc.fused,
+            "rejected": sc.rejected, "duplicates": sc.duplicates,
+            "landmarks": int(filt.n_landmarks),
+            "ate": round(float(ate(tr.x, tr.truth).position), 6),
+            "final_error": round(float(np.hypot(*tr.error[-1, :2])), 6),
+            "nees": round(float(np.mean(tr.nees)), 6),
+            "probe_error": round(float(np.hypot(*tr.error[kp, :2])), 6),
+            "probe_nees": round(float(tr.nees[kp]), 6)}
+
+
+def _drift(args):
+    return drift_row(*args)
+
+
+def drift_study(settings: dict = DRIFT_SETTINGS, workers: int = 2) -> list[dict]:
+    """Every (seed, config) of the drift study, in that order (the same for any ``workers``)."""
+    jobs = [(s, m, g, settings) for s in settings["seeds"] for m, g in settings["configs"]]
+    return map_jobs(_drift, jobs, max(int(workers), 1))
+
+
+def load_drift_study(path=DRIFT_PATH) -> tuple[dict, list[dict]]:
+    """``(settings, rows)`` of the stored drift study."""
+    d = load_stored(path, "association-study")
+    return d["settings"], d["rows"]
+
+
+def dense_run(seed: int, settings: dict = DENSE_SETTINGS) -> Run:
+    """The dense world of ``seed`` and one loop through it (analytic sensor, no clutter)."""
+    from ..sensors import AnalyticMarkerSensor
+    from ..sim import KobukiParams, WaypointController, loop_waypoints, simulate
+    from ..worlds import random_world
+
+    world = random_world(extent=tuple(settings["extent"]), count=settings["count"],
+                         min_spacing=settings["min_spacing"], seed=int(seed))
+    wp = loop_waypoints(world.bounds, margin=1.0)
+    return simulate(world, WaypointController(wp[1:]), sensor=AnalyticMarkerSensor(),
+                    seed=int(seed), params=KobukiParams(sigma_wheel=settings["sigma_wheel"]),
+                    start_pose=[wp[0, 0], wp[0, 1], -np.pi / 2], name=f"dense_{settings['count']}",
+                    max_duration=settings["max_duration"])
+
+
+def dense_row(seed: int, method: str, settings: dict = DENSE_SETTINGS) -> dict:
+    """One dense world: the association's counts, the map's size and the ATE."""
+    run = dense_run(seed, settings)
+    filt = make_filter(run, method)
+    tr, tid = run_without_ids(run, filt)
+    sc = association_errors(tr, tid)
+    return {"seed": int(seed), "method": method, "wrong": sc.wrong, "fused": sc.fused,
+            "rejected": sc.rejected, "duplicates": sc.duplicates,
+            "landmarks": int(filt.n_landmarks),
+            "ate": round(float(np.sqrt(np.mean(np.sum(tr.error[:, :2] ** 2, axis=1)))), 6)}
+
+
+def _dense(args):
+    return dense_row(*args)
+
+
+def dense_study(settings: dict = DENSE_SETTINGS, workers: int = 2) -> list[dict]:
+    """Every (seed, method) of the dense study, in that order (the same for any ``workers``)."""
+    jobs = [(s, m, settings) for s in settings["seeds"] for m in settings["methods"]]
+    return map_jobs(_dense, jobs, max(int(workers), 1))
+
+
+def load_dense_study(path=DENSE_PATH) -> tuple[dict, list[dict]]:
+    """``(settings, rows)`` of the stored dense study."""
+    d = load_stored(path, "association-study")
+    return d["settings"], d["rows"]
+
+
+if __name__ == "__main__":  # python -m slamlib.course.association_study [first|drift|dense|all]
     import sys
 
-    out = Path(sys.argv[1]) if len(sys.argv) > 1 else STUDY_PATH
-    save_study(study(), out)
-    print(f"wrote {out}")
+    which = sys.argv[1] if len(sys.argv) > 1 else "all"
+    if which in ("first", "all"):
+        save_study(study(), STUDY_PATH)
+        print(f"wrote {STUDY_PATH}")
+    if which in ("drift", "all"):
+        save_study(drift_study(), DRIFT_PATH, DRIFT_SETTINGS)
+        print(f"wrote {DRIFT_PATH}")
+    if which in ("dense", "all"):
+        save_study(dense_study(), DENSE_PATH, DENSE_SETTINGS)
+        print(f"wrote {DENSE_PATH}")
 
 
 def crowded_frame(k: int, spacing: float, clutter: float = 0.0, seed: int = 0):

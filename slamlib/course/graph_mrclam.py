@@ -12,7 +12,7 @@ and the same log goes through:
 - ``isam2``: iSAM2's final estimate (smoothed; it should equal ``batch``);
 - ``batch``: ``smooth(method="batch")`` (smoothed: every pose from ALL the readings);
 - ``huber``, ``cauchy``: the batch smoother with that robust kernel on the readings
-  (threshold :data:`ROBUST_K` whitened sigmas).
+  (threshold :data:`ROBUST_K` on the reading's Mahalanobis distance, 2 degrees of freedom).
 
 Every estimate is judged against Vicon at the SAME times: the graph's pose
 nodes (the start, every camera frame with landmark readings, the end); the
@@ -22,9 +22,14 @@ long blind stretches count as well. These times are not chapter 10's (every filt
 step), so the EKF's ATE here differs from chapter 10's table. Per estimate:
 the position ATE, the final position error, the mean pose NEES over those times,
 the map's RMS error against Vicon's landmarks. Per smoothed estimate also: how
-many readings end more than ``ROBUST_K`` whitened sigmas from the solution (the
+many readings end with a Mahalanobis distance above ``ROBUST_K`` from the solution (the
 ones a Huber kernel down-weights) and how many of those chapter 10 flagged as
-outliers against Vicon.
+outliers against Vicon. Per estimate also a profile every :data:`PROFILE_STEP` s (NEES,
+heading error and its sigma), and for the EKFs the readings they fused beyond
+the 0.95 gate's bound (the ungated one fuses every reading). Per robot,
+:func:`solver_check`: whether the batch solution is the optimum of its graph
+(Levenberg-Marquardt restarted from Vicon) and what the graph's cost is at Vicon's
+trajectory, odometry and readings apart.
 
 These are ONE run per robot (real data): no Monte-Carlo band applies.
 
@@ -41,20 +46,21 @@ import argparse
 import json
 from pathlib import Path
 
+import gtsam
 import numpy as np
 
 from .. import graph
 from .. import runner as ex
 from ..datasets import identify, mrclam
-from ..metrics import nees, pose_error
+from ..metrics import chi2_quantile, nees, pose_error
 from ..models import observe, wrap_angle
 from ..worlds import DATA_DIR
 from . import ch10
 from .stored import load_stored
 
-__all__ = ["ESTIMATES", "FILTERED", "MAX_STEPS", "ROBUST_K", "STUDY_FILE", "FORMAT", "robot_traces",
-           "node_samples", "whitened_residuals", "figures", "run_robot", "study", "save", "load",
-           "Study", "main"]
+__all__ = ["ESTIMATES", "FILTERED", "MAX_STEPS", "ROBUST_K", "PROFILE_STEP", "STUDY_FILE", "FORMAT",
+           "robot_traces", "node_samples", "whitened_residuals", "figures", "solver_check",
+           "run_robot", "study", "save", "load", "Study", "main"]
 
 FORMAT = "slamlib-graph-mrclam/1"
 STUDY_FILE = DATA_DIR / "studies" / "graph_mrclam.json"
@@ -65,8 +71,12 @@ FILTERED = ("ekf", "ekf_ungated", "isam2_online")
 #: A pose node also after this many filter steps without a camera frame (about 1 s on
 #: these logs), so that the blind stretches are judged too.
 MAX_STEPS = 100
-#: The robust kernels' threshold, in whitened sigmas (Huber's 95 %-efficiency constant).
-ROBUST_K = 1.345
+#: The robust kernels' threshold on a reading's Mahalanobis distance: the library's
+#: :data:`slamlib.graph.ROBUST_K`, ``sqrt(chi2_2^-1(0.95)) = 2.448`` (Huber's 1.345 is a
+#: constant for a 1-D residual; for the norm of a 2-D one ``P(d > 1.345) = 0.40``).
+ROBUST_K = graph.ROBUST_K
+#: The profile of each estimate is sampled every this many seconds from the log's start.
+PROFILE_STEP = 10.0
 _DIGITS = 6
 
 
@@ -161,6 +171,9 @@ def figures(traces: dict, log: mrclam.Log, outliers: np.ndarray | None = None) -
                "final_xy_error": _r(np.hypot(*e[-1, :2])),
                "mean_nees": _r(np.mean(nees(e, P))),
                "map_rmse": _r(ex.map_error(tr.filter, world)[0])}
+        row["profile"] = _profile(tr, t)
+        if tr.reports:
+            row["fused_beyond_gate"] = _fused_beyond_gate(tr, t[0])
         if isinstance(tr, graph.GraphTrace):
             d = whitened_residuals(tr)
             far = d > ROBUST_K
@@ -178,12 +191,95 @@ def figures(traces: dict, log: mrclam.Log, outliers: np.ndarray | None = None) -
     return out
 
 
+def _profile(trace: ex.Trace, t: np.ndarray) -> dict:
+    """NEES, heading error and heading sigma (degrees) every PROFILE_STEP s from t[0]."""
+    at = t[0] + np.arange(0.0, t[-1] - t[0] + 1e-9, PROFILE_STEP)
+    x, P, truth = node_samples(trace, at)
+    e = pose_error(x, truth)
+    return {"t": [_r(a - t[0]) for a in at], "nees": [_r(v) for v in nees(e, P)],
+            "heading_error_deg": [_r(v) for v in np.degrees(e[:, 2])],
+            "heading_sigma_deg": [_r(v) for v in np.degrees(np.sqrt(P[:, 2, 2]))]}
+
+
+def _fused_beyond_gate(trace: ex.Trace, t0: float, first: int = 5) -> dict:
+    """The readings a filter fused (accepted, not new) beyond the 0.95 gate's chi2_2 bound:
+    how many, and the first ``first`` of them as ``[t (s from t0), landmark, d2]``."""
+    bound = float(chi2_quantile(0.95, 2))
+    hits = []
+    for t, rep in trace.reports:
+        ok = np.asarray(rep.accepted, dtype=bool) & ~np.asarray(rep.new, dtype=bool)
+        d2 = np.asarray(rep.d2, dtype=float)
+        for j in np.flatnonzero(ok & (d2 > bound)):
+            hits.append([_r(t - t0), int(rep.matched[j]), _r(d2[j])])
+    return {"count": len(hits), "first": hits[:first]}
+
+
+def _cost_split(g: gtsam.NonlinearFactorGraph, values: gtsam.Values
+                ) -> tuple[float, float, float]:
+    """The graph's cost (1/2 the sum of squared whitened errors) of its odometry factors
+    and of its readings, and the median cost of one odometry factor."""
+    odo, rb = [], 0.0
+    for k in range(g.size()):
+        f = g.at(k)
+        if isinstance(f, gtsam.BetweenFactorPose2):
+            odo.append(f.error(values))
+        elif isinstance(f, gtsam.BearingRangeFactor2D):
+            rb += f.error(values)
+    return float(np.sum(odo)), rb, float(np.median(odo)) if odo else 0.0
+
+
+def solver_check(batch: graph.GraphTrace, log: mrclam.Log, online: ex.Trace | None = None
+                 ) -> dict:
+    """Is the batch solution the optimum of its graph, and how does Vicon's trajectory fit it?
+
+    Levenberg-Marquardt is restarted from Vicon (every pose; the landmarks at Vicon's
+    positions) on the same graph, with GTSAM's defaults but up to 200 iterations and
+    tight tolerances (1e-10 relative, 1e-12 absolute). Returns the batch solution's
+    iterations and cost, the restarted solution's cost and its largest position distance
+    to the batch solution (m), and the cost of the odometry factors and of the readings at
+    the batch solution and at Vicon (and the median of one odometry factor's there:
+    about 1.2, the median of chi2_3 / 2, for factors whose covariance is right).
+    ``online`` (iSAM2's filtered trace): also the share of pose times at which it is
+    nearer Vicon than the batch solution.
+    """
+    g = batch.graph
+    v = gtsam.Values()
+    for i in range(batch.problem.n_poses):
+        v.insert(graph.pose_key(i), graph.pose_to_gtsam(batch.truth[i]))
+    true = log.world().landmarks()
+    for m, p in zip(batch.landmark_ids, batch.landmark_x):
+        v.insert(graph.landmark_key(m), graph.point_to_gtsam(true.get(int(m), p)))
+    params = gtsam.LevenbergMarquardtParams()
+    params.setMaxIterations(200)
+    params.setRelativeErrorTol(1e-10)
+    params.setAbsoluteErrorTol(1e-12)
+    opt = gtsam.LevenbergMarquardtOptimizer(g, v, params)
+    sol = opt.optimize()
+    x = np.array([graph.pose_from_gtsam(sol.atPose2(graph.pose_key(i)))
+                  for i in range(batch.problem.n_poses)])
+    odo, rb, _ = _cost_split(g, batch.values)
+    odo_v, rb_v, med_v = _cost_split(g, v)
+    out = {"lm_iterations": int(batch.iterations), "cost": _r(g.error(batch.values)),
+           "cost_from_vicon": _r(g.error(sol)),
+           "shift_from_vicon": _r(np.max(np.hypot(*(x - batch.x)[:, :2].T))),
+           "cost_odometry": _r(odo), "cost_readings": _r(rb),
+           "vicon_cost_odometry": _r(odo_v), "vicon_cost_readings": _r(rb_v),
+           "vicon_median_odometry": _r(med_v)}
+    if online is not None:
+        xo, _, truth = node_samples(online, batch.t)
+        eo = np.hypot(*pose_error(xo, truth)[:, :2].T)
+        eb = np.hypot(*pose_error(batch.x, batch.truth)[:, :2].T)
+        out["online_closer_share"] = _r(np.mean(eo < eb))
+    return out
+
+
 def run_robot(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None) -> dict:
     """The stored figures of one robot (see the module docstring)."""
     raw = _raw_logs(folder) if raw is None else raw
     traces, log = robot_traces(robot, folder, raw)
     flags = identify.fit_reading_noise(identify.reading_residuals(raw[robot])).outlier
-    return {"robot": int(robot), **figures(traces, log, np.asarray(flags, dtype=bool))}
+    return {"robot": int(robot), **figures(traces, log, np.asarray(flags, dtype=bool)),
+            "solver": solver_check(traces["batch"], log, traces["isam2_online"])}
 
 
 def study(folder=mrclam.EXCERPT_DIR) -> dict:

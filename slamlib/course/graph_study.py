@@ -25,7 +25,7 @@ readings its gate rejects): only their linearisation differs.
 ``make graph-study`` (``python -m slamlib.course.graph_study``) stores the
 numbers in ``data/studies/graph_arena.json`` (rounded to 6 significant
 digits, no timings: bit for bit the same on every regeneration, whatever the
-number of worker processes); ``tests/test_graph_study.py`` recomputes a sample
+number of worker processes); ``tests/test_graph_course.py`` recomputes a sample
 of seeds and compares.
 """
 
@@ -39,14 +39,14 @@ import numpy as np
 
 from .. import graph
 from .. import runner as ex
-from ..metrics import chi2_band, nees, pose_error
+from ..metrics import SeedSpread, chi2_band, nees, pose_error, seed_spread
 from ..sim import scenario
 from ..studies import map_jobs, sample_trace
 from ..worlds import DATA_DIR
 from .stored import load_stored
 
 __all__ = ["CASES", "SEEDS", "GRID", "ESTIMATES", "STUDY_FILE", "FORMAT", "run_seed", "study",
-           "save", "load", "Study", "main"]
+           "save", "load", "Study", "Spread", "spread", "main"]
 
 FORMAT = "slamlib-graph-study/1"
 #: Where ``make graph-study`` writes the study.
@@ -155,6 +155,16 @@ def save(data: dict, path=STUDY_FILE) -> None:
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
+#: How one figure spreads over the seeds (:func:`spread`).
+Spread = SeedSpread
+
+
+def spread(values, seeds, n_top: int = 3, prob: float = 0.95, n_boot: int = 4000,
+           seed: int = 0) -> SeedSpread:
+    """The :class:`~slamlib.metrics.SeedSpread` of ``values`` (one per seed of ``seeds``)."""
+    return seed_spread(values, seeds, n_top=n_top, level=prob, n_boot=n_boot, seed=seed)
+
+
 class Study:
     """The stored study, with the tables and curves chapter 11 shows."""
 
@@ -178,6 +188,15 @@ class Study:
     def values(self, case: str, estimate: str, name: str) -> np.ndarray:
         """One figure of one estimate over the seeds, shape (N,) (or (N, T) for ``nees``)."""
         return np.array([r[estimate][name] for r in self.runs(case)], dtype=float)
+
+    def spread(self, case: str, estimate: str, name: str = "mean_nees",
+               minus: str | None = None) -> Spread:
+        """The :class:`Spread` of one figure over the seeds; ``minus``: of its difference,
+        seed by seed, with the same figure of that estimate (a paired comparison)."""
+        v = self.values(case, estimate, name)
+        if minus is not None:
+            v = v - self.values(case, minus, name)
+        return spread(v, self.seeds)
 
     def average_nees(self, case: str, estimate: str) -> np.ndarray:
         """The Monte-Carlo average pose NEES at each grid time (shape (T,))."""

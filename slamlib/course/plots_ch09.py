@@ -7,7 +7,7 @@ import numpy as np
 from . import plots
 
 __all__ = ["plot_reading_gates", "plot_wrong_associations", "plot_study", "plot_jcbb_cost",
-           "summarise_study"]
+           "summarise_study", "drift_columns", "plot_drift_study"]
 
 METHOD_COLORS = {"ids": "tab:gray", "nn": "tab:red", "jcbb": "tab:blue"}
 
@@ -132,3 +132,44 @@ def plot_jcbb_cost(ax, ks, nodes_by_case: dict[str, list[int]]):
     ax.set_ylabel("nodes JCBB visits")
     ax.grid(True, which="both", lw=0.4, alpha=0.5)
     ax.legend(fontsize=8)
+
+
+def drift_columns(rows: list[dict]) -> dict[tuple[str, float], dict[str, np.ndarray]]:
+    """The drift study's rows (``association_study.drift_study``) as arrays per (method, gate),
+    each in seed order: ``columns[("jcbb", 0.95)]["wrong"][k]`` is seed ``seeds[k]``'s count."""
+    out: dict = {}
+    for r in sorted(rows, key=lambda r: r["seed"]):
+        d = out.setdefault((r["method"], float(r["gate"])), {})
+        for key, v in r.items():
+            if key not in ("method", "gate"):
+                d.setdefault(key, []).append(v)
+    return {k: {key: np.asarray(v) for key, v in d.items()} for k, d in out.items()}
+
+
+def plot_drift_study(cols: dict, *, seed: int = 1, axes=None):
+    """Wrong associations per drifted run, JCBB against NN, at gates 0.95 and 0.99 (symlog);
+    ``seed`` (the chapter's run) ringed."""
+    import matplotlib.pyplot as plt
+
+    if axes is None:
+        _, axes = plt.subplots(1, 2, figsize=(9.5, 4.0))
+    for ax, gate in zip(axes, (0.95, 0.99)):
+        nn, jc = cols[("nn", gate)], cols[("jcbb", gate)]
+        ax.plot(nn["wrong"], jc["wrong"], ".", color="tab:purple", alpha=0.6, ms=6,
+                label=f"{nn['wrong'].size} seeds")
+        k = int(np.flatnonzero(nn["seed"] == seed)[0])
+        ax.plot(nn["wrong"][k], jc["wrong"][k], "o", ms=11, mfc="none", mec="k", mew=1.5,
+                label=f"seed {seed} (the run above)")
+        top = max(nn["wrong"].max(), jc["wrong"].max()) * 1.3 + 1
+        ax.plot([0, top], [0, top], "k--", lw=0.8, label="equal")
+        ax.set_xscale("symlog", linthresh=1)
+        ax.set_yscale("symlog", linthresh=1)
+        ax.set_xlim(-0.3, top)
+        ax.set_ylim(-0.3, top)
+        ax.set_xlabel("NN: wrong associations in the run")
+        ax.set_ylabel("JCBB: wrong associations in the run")
+        ax.set_title(f"gate {gate:g}", fontsize=10)
+        ax.grid(True, which="both", lw=0.4, alpha=0.5)
+        ax.legend(fontsize=8, loc="upper left")
+    plt.tight_layout()
+    return axes

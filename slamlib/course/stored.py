@@ -6,7 +6,7 @@ from pathlib import Path
 
 from ..validate import read_json_file
 
-__all__ = ["load_stored"]
+__all__ = ["load_stored", "write_or_check"]
 
 
 def load_stored(path, make_target: str):
@@ -18,3 +18,22 @@ def load_stored(path, make_target: str):
         return read_json_file(path)[0]
     except ValueError as exc:
         raise ValueError(f"{exc} (`make {make_target}` writes it)") from None
+
+
+def write_or_check(path, build, argv: list[str], what: str = "stored study") -> int:
+    """The command line of a ``tools/make_*.py`` script that writes one stored file.
+
+    ``build(workers)`` returns the file's text (``--workers N`` in ``argv``, default
+    2). With ``--check`` in ``argv`` nothing is written: returns 1 if the file would
+    change (0 if it is up to date); otherwise writes it and returns 0.
+    """
+    path = Path(path)
+    workers = int(argv[argv.index("--workers") + 1]) if "--workers" in argv else 2
+    text = build(workers)
+    if "--check" in argv:
+        same = path.is_file() and path.read_text(encoding="utf-8") == text
+        print(f"{what}: up to date" if same else f"would change: {path}")
+        return 0 if same else 1
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text(text, encoding="utf-8")
+    return 0

@@ -7,6 +7,12 @@
   that ``make studies`` (``tools/make_studies.py``) stores in
   ``data/studies/ch06_consistency.json``; :func:`load_ch06_studies`, :func:`run_study`,
   :func:`summarise` and :func:`summary_numbers` read, recompute and tabulate them.
+- :data:`GATE_STUDY` and :func:`gate_readings`: every gated reading of the
+  true markers, per filter, slip and seed: how many the 0.95 gate rejects, at
+  what pose NEES, before and after the loop closure; stored by
+  ``make gate-study`` in ``data/studies/ch06_gate.json`` (:func:`load_gate_study`).
+- :func:`robust_summary`: a column of per-seed values as chapter 06 quotes it
+  (mean, median, bootstrap interval, the largest run and the mean without it).
 - :func:`observability`: the rank of the observability matrix a filter's own
   linearisation builds (EKF SLAM against First-Estimates Jacobians).
 """
@@ -19,7 +25,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .. import runner as ex
-from ..metrics import chi2_band
+from ..metrics import SeedSpread, chi2_band, chi2_quantile, seed_spread
 from ..runs import Run
 from ..studies import NEESStudy, map_jobs, monte_carlo
 from .stored import load_stored
@@ -27,7 +33,8 @@ from .stored import load_stored
 __all__ = ["DENSITY_EXTENT", "random_loop_run", "DensityRow", "density_sweep",
            "LandmarkPlacement", "landmark_placement", "CH06_STUDIES", "CH06_SEEDS",
            "load_ch06_studies", "nominal_Q", "run_study", "summarise", "summary_numbers",
-           "Observability", "observability"]
+           "Observability", "observability", "GATE_STUDY", "GATE_METHODS", "gate_readings",
+           "load_gate_study", "RobustSummary", "robust_summary", "column_summary", "gate_rates"]
 
 
 # --------------------------------------------------------------------------- marker density
@@ -337,3 +344,143 @@ def summary_numbers(summary: dict, prob: float = 0.95) -> dict:
                    nees_before=float(np.nanmean(nb)), nees_before_median=float(np.nanmedian(nb)),
                    d2_median=float(np.nanmedian(d2)))
     return out
+
+
+# --------------------------------------------------------------------------- the gate's readings
+#: Chapter 06's study of every gated reading (``make gate-study``): the arena loop, matched Q,
+#: gate 0.95, the seeds :data:`CH06_SEEDS`, at these slips.
+GATE_STUDY = {"scenario": "arena_loop", "sigmas": (0.02, 0.10, 0.14), "gate": 0.95,
+              "t_end": 58.5}
+#: The filters of the gate study: ``"ideal_estimate"`` is the ideal EKF with EKF SLAM's
+#: innovation ``z - h(x)`` (``IdealEKFSLAM(..., innovation="estimate")``).
+GATE_METHODS = ("slam", "fej", "ideal", "ideal_estimate")
+
+
+def _gate_trace(run: Run, method: str, gate: float):
+    if method == "ideal_estimate":
+        from ..ekf import IdealEKFSLAM
+
+        extra = {"truth": ex.truth_function(run), "landmarks": run.world().landmarks(),
+                 "t0": float(run.enc_t[0]), "innovation": "estimate"}
+        return ex._slam_with(IdealEKFSLAM, run, extra, gate=gate)
+    from ..studies import _run_method
+
+    return _run_method(run, method, gate)
+
+
+def gate_readings(job: tuple) -> dict:
+    """One seed of the gate study: ``job = (scenario, seed, sigma_wheel, gate, t_end, methods)``.
+
+    For each filter, over every reading of an already-mapped (true) marker:
+    ``gated`` and ``rejected`` counts, ``d2_sum`` (sum of their ``y^T S^-1 y``),
+    the same counts for the readings whose prior pose NEES was below
+    ``chi2_3(0.95) = 7.81`` (``gated_low``, ``rejected_low``: a pose that looks
+    consistent), and for the readings before the loop closure
+    (``gated_before``, ``rejected_before``: earlier than the first landmark's
+    re-observation, :func:`slamlib.studies.reobservation`); then the loop
+    closure (``closure_status``, ``closed``), the pose NEES at ``t_end``
+    (``final_nees``) and its mean on the grid ``0.5, 1.0, ..., t_end``
+    (``mean_nees``), as in :data:`CH06_STUDIES`. The prior NEES of a reading is
+    the trace's NEES after the event before its update.
+    """
+    from ..sim import scenario
+    from ..studies import reobservation, sample_trace
+
+    name, seed, sigma, gate, t_end, methods = job
+    grid = np.arange(1, int(round(t_end / 0.5)) + 1) * 0.5
+    run = scenario(name, seed=seed, sigma_wheel=sigma)
+    low = chi2_quantile(0.95, 3)
+    out = {"seed": int(seed)}
+    for m in methods:
+        tr = _gate_trace(run, m, gate)
+        nees = tr.nees
+        reob = reobservation(tr)
+        t_close = reob.t_again if np.isfinite(reob.t_again) else np.inf
+        upd = np.flatnonzero(tr.kind == "update")
+        c = dict.fromkeys(("gated", "rejected", "gated_low", "rejected_low", "gated_before",
+                           "rejected_before"), 0)
+        d2_sum = 0.0
+        for (t, rep), k in zip(tr.reports, upd):
+            old = ~np.asarray(rep.new, dtype=bool) & np.isfinite(rep.d2)
+            if not old.any():
+                continue
+            rej = old & ~np.asarray(rep.accepted, dtype=bool)
+            n, r = int(old.sum()), int(rej.sum())
+            d2_sum += float(np.sum(rep.d2[old]))
+            c["gated"] += n
+            c["rejected"] += r
+            if nees[k - 1] < low:
+                c["gated_low"] += n
+                c["rejected_low"] += r
+            if t < t_close:
+                c["gated_before"] += n
+                c["rejected_before"] += r
+        on_grid, _ = sample_trace(tr, grid)
+        out[m] = {**c, "d2_sum": d2_sum, "closure_status": reob.status,
+                  "closed": bool(reob.closed), "final_nees": float(on_grid[-1]),
+                  "mean_nees": float(np.mean(on_grid))}
+    return out
+
+
+def run_gate_study(seeds: Iterable[int] = CH06_SEEDS, workers: int = 1) -> dict:
+    """The gate study over ``seeds``: ``{sigma (str): [gate_readings of each seed]}``."""
+    out = {}
+    for sigma in GATE_STUDY["sigmas"]:
+        jobs = [(GATE_STUDY["scenario"], int(s), sigma, GATE_STUDY["gate"], GATE_STUDY["t_end"],
+                 GATE_METHODS) for s in seeds]
+        out[f"{sigma:.2f}"] = map_jobs(gate_readings, jobs, int(workers))
+    return out
+
+
+def load_gate_study(path=None) -> dict:
+    """The stored gate study (``data/studies/ch06_gate.json``, ``make gate-study``)."""
+    from ..worlds import DATA_DIR
+
+    return load_stored(DATA_DIR / "studies" / "ch06_gate.json" if path is None else path,
+                       "gate-study")
+
+
+# --------------------------------------------------------------------------- quoting a mean
+#: A column of per-seed values as chapter 06 quotes it (:func:`robust_summary`).
+RobustSummary = SeedSpread
+
+
+def robust_summary(values, seeds, level: float = 0.95) -> SeedSpread:
+    """Mean, median and bootstrap interval (:func:`slamlib.metrics.seed_spread`, seed 0) of
+    ``values``, with the seed of the largest value and the mean without it."""
+    return seed_spread(values, seeds, level=level)
+
+
+def column_summary(summary: dict, field: str = "mean_nees") -> RobustSummary:
+    """:func:`robust_summary` of one per-run field of a stored study (:func:`summarise`)."""
+    runs = summary["runs"]
+    return robust_summary([r[field] for r in runs], [r["seed"] for r in runs])
+
+
+def gate_rates(runs: Sequence[dict], method: str) -> dict:
+    """Pooled rates of the gate study's runs (:func:`gate_readings`) for one filter.
+
+    ``per_run`` gated readings per run; ``rejected`` the share of all gated
+    readings of true markers that the gate rejected; ``mean_d2`` their mean
+    ``y^T S^-1 y`` (2 for a consistent filter: chi-square with 2 degrees of
+    freedom); ``rejected_low`` the share rejected among the readings whose prior
+    pose NEES was below 7.81, ``low`` the share of readings with such a prior;
+    ``rejected_before`` / ``rejected_after`` before and from the loop closure;
+    ``first_rejected`` how many runs' loop-closure reading was rejected.
+    """
+    c = {k: sum(r[method][k] for r in runs) for k in
+         ("gated", "rejected", "gated_low", "rejected_low", "gated_before", "rejected_before")}
+    d2 = sum(r[method]["d2_sum"] for r in runs)
+    after = c["gated"] - c["gated_before"]
+
+    def share(a, b):
+        return a / b if b else float("nan")
+
+    return {"per_run": c["gated"] / len(runs), "rejected": share(c["rejected"], c["gated"]),
+            "mean_d2": share(d2, c["gated"]),
+            "low": share(c["gated_low"], c["gated"]),
+            "rejected_low": share(c["rejected_low"], c["gated_low"]),
+            "rejected_before": share(c["rejected_before"], c["gated_before"]),
+            "rejected_after": share(c["rejected"] - c["rejected_before"], after),
+            "first_rejected": int(sum(r[method]["closure_status"] == "rejected" for r in runs)),
+            "n_runs": len(runs)}
