@@ -59,7 +59,7 @@ student: $(STAMP)
 runs: $(STAMP)
 	$(PY) tools/make_runs.py
 
-## Regenerate chapter 06's stored Monte-Carlo studies in data/studies (bit for bit; ~10-20 min)
+## Regenerate chapter 06's stored Monte-Carlo studies in data/studies (bit for bit; ~10 min)
 studies: $(STAMP)
 	$(PY) tools/make_studies.py --workers 2
 
@@ -72,7 +72,7 @@ gate-study: $(STAMP)
 association-study: $(STAMP)
 	$(PY) -m slamlib.course.association_study
 
-## Regenerate the stored 100-seed studies in data/evidence (bit for bit; about 15 min on 2 cores)
+## Regenerate the stored 100-seed studies in data/evidence (bit for bit; ~10 min on 2 cores)
 evidence: $(STAMP)
 	$(PY) tools/make_evidence.py --workers 2
 
