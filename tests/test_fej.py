@@ -39,57 +39,50 @@ def _corner(A):
     return np.array([A[0, 2], A[1, 2]])
 
 
-def test_fej_motion_jacobians_chain_over_an_interval_with_updates():
-    f = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
-    As, props = [], [f.propagated_pose]
-    orig = f._predict_cov
+def _motion_jacobians_over_a_drive(filt, pose_of):
+    """Drive ``filt`` 40 steps with an update every 5th; the motion Jacobian A of every
+    prediction (spied on ``_predict_cov``) and ``pose_of(filt)`` before and after each."""
+    As, poses = [], [pose_of(filt)]
+    orig = filt._predict_cov
 
     def spy(A, W):
         As.append(A.copy())
         orig(A, W)
 
-    f._predict_cov = spy
+    filt._predict_cov = spy
     rng = np.random.default_rng(1)
     for k in range(40):
-        f.predict(np.array([0.2, 0.26]), 0.02)
-        props.append(f.propagated_pose)
+        filt.predict(np.array([0.2, 0.26]), 0.02)
+        poses.append(pose_of(filt))
         if k % 5 == 4:
             ids = np.array(sorted(LANDMARKS))
-            z = np.array([observe(f.pose, LANDMARKS[i]) for i in ids]) + rng.normal(0, 0.05, (3, 2))
-            f.update(ids, z)
+            z = np.array([observe(filt.pose, LANDMARKS[i]) for i in ids]) + \
+                rng.normal(0, 0.05, (3, 2))
+            filt.update(ids, z)
+    return As, poses
+
+
+def _product(As):
+    prod = np.eye(3)
+    for A in As:
+        prod = A @ prod
+    return prod
+
+
+def test_fej_motion_jacobians_chain_over_an_interval_with_updates():
+    f = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
+    As, props = _motion_jacobians_over_a_drive(f, lambda g: g.propagated_pose)
     # the product over steps a..b-1 is the A of the whole interval: x_{b|b-1} - x_{a|a-1}
     for a, b in [(0, 40), (3, 17), (4, 5), (9, 31)]:
-        prod = np.eye(3)
-        for A in As[a:b]:
-            prod = A @ prod
         d = props[b] - props[a]
         whole = np.array([[1.0, 0.0, -d[1]], [0.0, 1.0, d[0]], [0.0, 0.0, 1.0]])
-        assert np.allclose(prod, whole, atol=1e-12), (a, b)
+        assert np.allclose(_product(As[a:b]), whole, atol=1e-12), (a, b)
 
 
 def test_standard_motion_jacobians_do_not_chain_after_updates():
     f = EKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-6, Q, R)
-    As, poses = [], [f.pose]
-    orig = f._predict_cov
-
-    def spy(A, W):
-        As.append(A.copy())
-        orig(A, W)
-
-    f._predict_cov = spy
-    rng = np.random.default_rng(1)
-    props = [f.pose]
-    for k in range(40):
-        f.predict(np.array([0.2, 0.26]), 0.02)
-        props.append(f.pose)
-        if k % 5 == 4:
-            ids = np.array(sorted(LANDMARKS))
-            z = np.array([observe(f.pose, LANDMARKS[i]) for i in ids]) + rng.normal(0, 0.05, (3, 2))
-            f.update(ids, z)
-        poses.append(f.pose)
-    prod = np.eye(3)
-    for A in As:
-        prod = A @ prod
+    As, props = _motion_jacobians_over_a_drive(f, lambda g: g.pose)   # the pose after predict
+    prod = _product(As)
     d = props[-1] - props[0]
     assert abs(prod[0, 2] + d[1]) + abs(prod[1, 2] - d[0]) > 1e-4   # the updates broke the chain
 
