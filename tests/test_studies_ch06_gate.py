@@ -102,3 +102,24 @@ def test_gate_rates_pool_the_runs():
     assert g["rejected_before"] == pytest.approx(10 / 280)
     assert g["rejected_after"] == pytest.approx(10 / 120)
     assert g["first_rejected"] == 1
+
+
+def test_band_shares_against_the_chi_square_quantiles():
+    from scipy.stats import chi2
+
+    lo, hi = chi2.ppf(0.025, 300) / 100, chi2.ppf(0.975, 300) / 100      # 2.54, 3.50
+    avg = np.array([2.0, lo + 0.01, 3.0, hi - 0.01, 3.6, 4.0, 5.0, 3.2])
+    s = studies_ch06.band_shares(avg, 100)
+    assert s["band"] == pytest.approx((lo, hi), rel=1e-9)
+    assert (s["below"], s["inside"], s["above"]) == pytest.approx((1 / 8, 4 / 8, 3 / 8))
+    # raised by 0.35: 3.2 and hi - 0.01 leave the band, 2.0 stays below, lo + 0.01 and 3.0 stay in
+    r = studies_ch06.band_shares(avg, 100, shift=0.35)
+    assert (r["below"], r["inside"], r["above"]) == pytest.approx((1 / 8, 2 / 8, 5 / 8))
+    # the heading's band (1 degree of freedom) is another band
+    h = studies_ch06.band_shares(np.array([1.0, 1.4]), 100, dof=1)
+    assert h["band"][1] == pytest.approx(chi2.ppf(0.975, 100) / 100)
+    assert h["above"] == pytest.approx(0.5)
+    with pytest.raises(ValueError, match="avg"):
+        studies_ch06.band_shares(np.array([np.nan]), 100)
+    with pytest.raises(ValueError, match="n_runs"):
+        studies_ch06.band_shares(avg, 0)

@@ -34,7 +34,8 @@ __all__ = ["DENSITY_EXTENT", "random_loop_run", "DensityRow", "density_sweep",
            "LandmarkPlacement", "landmark_placement", "CH06_STUDIES", "CH06_SEEDS",
            "load_ch06_studies", "nominal_Q", "run_study", "summarise", "summary_numbers",
            "Observability", "observability", "GATE_STUDY", "GATE_METHODS", "gate_readings",
-           "load_gate_study", "RobustSummary", "robust_summary", "column_summary", "gate_rates"]
+           "load_gate_study", "RobustSummary", "robust_summary", "column_summary", "gate_rates",
+           "band_shares"]
 
 
 # --------------------------------------------------------------------------- marker density
@@ -344,6 +345,29 @@ def summary_numbers(summary: dict, prob: float = 0.95) -> dict:
                    nees_before=float(np.nanmean(nb)), nees_before_median=float(np.nanmedian(nb)),
                    d2_median=float(np.nanmedian(d2)))
     return out
+
+
+def band_shares(avg, n_runs: int, *, shift: float = 0.0, dof: int = 3, prob: float = 0.95
+                ) -> dict:
+    """Where a Monte-Carlo average NEES curve lies against the band of one instant.
+
+    ``avg`` is the average over ``n_runs`` runs at each grid time; the band is
+    ``chi2_band(dof, n_runs, prob)``. Returns the shares of grid times
+    ``below``, ``inside`` and ``above`` it (a point on an edge counts as
+    inside), for the curve raised by ``shift`` (``shift=0``: as measured; a
+    shift shows how fragile the share inside is when the curve runs along an
+    edge).
+    """
+    a = np.asarray(avg, dtype=float)
+    if a.ndim != 1 or a.size == 0 or not np.all(np.isfinite(a)):
+        raise ValueError("avg: expected a non-empty 1-d array of finite numbers, "
+                         f"got shape {a.shape}")
+    if isinstance(n_runs, bool) or not isinstance(n_runs, (int, np.integer)) or n_runs < 1:
+        raise ValueError(f"n_runs: expected a positive integer, got {n_runs!r}")
+    lo, hi = chi2_band(dof, int(n_runs), prob)
+    a = a + float(shift)
+    below, above = float(np.mean(a < lo)), float(np.mean(a > hi))
+    return {"below": below, "inside": 1.0 - below - above, "above": above, "band": (lo, hi)}
 
 
 # --------------------------------------------------------------------------- the gate's readings
