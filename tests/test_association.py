@@ -361,3 +361,26 @@ def test_confirmed_slam_without_ids_errors_and_copies():
     h = copy.deepcopy(g)
     rep = h.update(None, [[2.0, 0.1]])                 # the copy's own candidates, not g's
     assert rep.status == ("new",) and h.frame == 2 and g.frame == 1 and g.n_landmarks == 0
+
+
+def test_wrong_associations_lists_exactly_the_counted_ones_with_their_gates():
+    # chapter 09 section 8: why JCBB's remaining wrong associations had no right answer to choose
+    from slamlib.course.association_study import study_row, wrong_associations
+
+    res = wrong_associations(2088, "jcbb")
+    row = study_row(2088, "jcbb")
+    assert len(res["wrong"]) == row["wrong"] > 0
+    for w in res["wrong"]:
+        assert w["label"] != w["marker"] and w["in_gate"] >= 1 and w["others"] >= 0
+        assert 0.0 <= w["t"] <= 30.0
+    lm = res["landmarks"]
+    # every fused reading of a real marker sits in exactly one landmark's count, besides the births
+    fused = sum(n for d in lm.values() for mk, n in d["readings"].items() if mk >= 0)
+    births = sum(1 for d in lm.values() if d["origin"] is not None and d["origin"] >= 0)
+    assert fused - births == row["fused"]
+    assert len(lm) == row["landmarks"]
+    # the gates recorded: with ids nothing is gated by association, so all zeros
+    run = scenario("arena_loop", seed=2088, p_outlier=0.1)
+    gates: list = []
+    tr, tid = run_without_ids(run, make_filter(run, "ids"), max_time=2.0, gates=gates)
+    assert len(gates) == len(tid) == len(tr.reports) and all(np.all(g == 0) for g in gates)

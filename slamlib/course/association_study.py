@@ -37,7 +37,8 @@ from .stored import load_stored
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
            "study_row", "study", "save_study", "load_study", "STUDY_PATH", "STUDY_SETTINGS",
-           "crowded_frame", "drift_row", "drift_study", "load_drift_study", "DRIFT_PATH",
+           "crowded_frame", "landmark_readings", "wrong_associations", "drift_row",
+           "drift_study", "load_drift_study", "DRIFT_PATH",
            "DRIFT_SETTINGS", "dense_run", "dense_row", "dense_study", "load_dense_study",
            "DENSE_PATH", "DENSE_SETTINGS"]
 
@@ -74,8 +75,13 @@ def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: flo
                           n_confirm=n_confirm)
 
 
-def run_without_ids(run: Run, filt, *, max_time: float | None = None):
+def run_without_ids(run: Run, filt, *, max_time: float | None = None,
+                    gates: list | None = None):
     """Drive ``filt`` over ``run`` with the ids hidden (unless its association is ``"ids"``).
+
+    With a list ``gates``, one entry per report is appended to it: per reading,
+    how many landmarks had it inside their gate
+    (``filt.last_association["in_gate"]``; zeros with ids).
 
     Returns
     -------
@@ -100,6 +106,10 @@ def run_without_ids(run: Run, filt, *, max_time: float | None = None):
             R = ex.reading_covariances(sensor, obs.z)
             report = filt.update(None if anonymous else obs.ids, obs.z, R=R)
             true_ids.append(obs.true_ids.copy())
+            if gates is not None:
+                in_gate = filt.last_association.get("in_gate") if anonymous else None
+                gates.append(np.zeros(len(obs), dtype=np.int64) if in_gate is None
+                             else np.array(in_gate, dtype=np.int64))
         rec.record(ev.t, ev.kind, filt, report)
     return rec.trace(run, filt), true_ids
 
@@ -155,18 +165,60 @@ class AssociationScore:
         return self.wrong / self.fused if self.fused else 0.0
 
 
+def landmark_readings(trace, true_ids) -> dict[int, dict]:
+    """Per map id of ``trace`` (from :func:`run_without_ids`): the time ``born`` and the true
+    marker ``origin`` of the reading that started it, and ``readings``, how many readings of
+    each true marker (-1: clutter) started it or were fused into it."""
+    out: dict[int, dict] = {}
+    for (t, rep), tid in zip(trace.reports, true_ids):
+        for i, mk in enumerate(tid):
+            if not (rep.new[i] or rep.accepted[i]):
+                continue
+            d = out.setdefault(int(rep.matched[i]), {"born": None, "origin": None, "readings": {}})
+            if rep.new[i]:
+                d["born"], d["origin"] = float(t), int(mk)
+            d["readings"][int(mk)] = d["readings"].get(int(mk), 0) + 1
+    return out
+
+
+def wrong_associations(seed: int, method: str = "jcbb", settings: dict = STUDY_SETTINGS) -> dict:
+    """Each wrong association of one run of the study (:func:`study_row`), and why it had
+    no right answer to choose.
+
+    Returns a dict: ``score`` (:class:`AssociationScore`), ``landmarks``
+    (:func:`landmark_readings`) and ``wrong``, one dict per reading fused into a
+    landmark labelled with another marker: ``t``, ``marker`` (its true marker),
+    ``label`` (its landmark's), ``in_gate`` (landmarks inside its gate: 1 means the
+    wrong one alone), ``own_mapped`` (a landmark labelled ``marker`` existed before this
+    frame) and ``others`` (other readings of the frame inside some gate).
+    """
+    from ..sim import scenario
+
+    run = scenario(settings["scenario"], seed=int(seed), p_outlier=settings["p_outlier"])
+    filt = make_filter(run, method)
+    gates: list = []
+    tr, tid = run_without_ids(run, filt, max_time=settings["max_time"], gates=gates)
+    sc = association_errors(tr, tid)
+    lm = landmark_readings(tr, tid)
+    wrong = []
+    for (t, rep), marks, g in zip(tr.reports, tid, gates):
+        for i, mk in enumerate(marks):
+            mk = int(mk)
+            if mk < 0 or not rep.accepted[i] or rep.new[i] or sc.label[int(rep.matched[i])] == mk:
+                continue
+            wrong.append({"t": float(t), "marker": mk, "label": sc.label[int(rep.matched[i])],
+                          "in_gate": int(g[i]),
+                          "own_mapped": any(sc.label.get(m) == mk and d["born"] is not None
+                                            and d["born"] < t for m, d in lm.items()),
+                          "others": int(np.count_nonzero(g > 0)) - 1})
+    return {"score": sc, "landmarks": lm, "wrong": wrong}
+
+
 def association_errors(trace, true_ids) -> AssociationScore:
     """Score ``trace`` (from :func:`run_without_ids`) against the true ids of its readings."""
-    origin: dict[int, int] = {}
-    votes: dict[int, dict[int, int]] = {}
-    for (_, rep), tid in zip(trace.reports, true_ids):
-        for i, t in enumerate(tid):
-            m = int(rep.matched[i])
-            if rep.new[i]:
-                origin[m] = int(t)
-            if rep.new[i] or rep.accepted[i]:
-                v = votes.setdefault(m, {})
-                v[int(t)] = v.get(int(t), 0) + 1
+    lm = landmark_readings(trace, true_ids)
+    origin = {m: d["origin"] for m, d in lm.items() if d["origin"] is not None}
+    votes = {m: d["readings"] for m, d in lm.items() if d["readings"]}
     # the majority; a tie goes to the marker that started the landmark, then to the lower id
     label = {m: max(v, key=lambda t, m=m: (v[t], t == origin.get(m), -t))
              for m, v in votes.items()}

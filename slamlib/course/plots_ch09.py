@@ -124,10 +124,14 @@ def plot_study(rows: list[dict], *, axes=None):
     return axes
 
 
-def plot_jcbb_cost(ax, ks, nodes_by_case: dict[str, list[int]]):
-    """Nodes JCBB visits per frame against the readings in the frame (log scale)."""
+def plot_jcbb_cost(ax, ks, nodes_by_case: dict[str, list[int]],
+                   maxima: dict[str, list[int]] | None = None):
+    """Nodes JCBB visits per frame against the readings in the frame (log scale); with
+    ``maxima`` (same keys), the largest count of each k dashed in the same colour."""
     for name, nodes in nodes_by_case.items():
-        ax.semilogy(ks, nodes, "o-", label=name)
+        line, = ax.semilogy(ks, nodes, "o-", label=name)
+        if maxima is not None:
+            ax.semilogy(ks, maxima[name], "--", color=line.get_color(), lw=0.9)
     ax.set_xlabel("readings in the frame")
     ax.set_ylabel("nodes JCBB visits")
     ax.grid(True, which="both", lw=0.4, alpha=0.5)
