@@ -41,8 +41,8 @@ equal pairs and a ``D2`` already not smaller: ``D2`` never decreases as pairs
 are added). As in the paper, joint compatibility is tested at every
 extension, i.e. every prefix of the answer (in reading order) is jointly
 compatible. ``D2`` is updated incrementally with a Cholesky factor ``L`` of
-``S_H``: each node solves ``L B^T = C_q`` with a general ``np.linalg.solve``
-(O(m^3); a triangular solve would be O(m^2)) and copies ``L`` into the
+``S_H``: each node solves ``L B^T = C_q`` by forward substitution
+(:func:`slamlib.kernels.solve_lower`, O(m^2)) and copies ``L`` into the
 enlarged factor (O(m^2)); for the few pairs of one frame the node's cost is
 numpy's call overhead.
 
@@ -60,6 +60,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
+from .kernels import solve_lower
 from .metrics import chi2_quantile
 
 __all__ = ["individual_d2", "nearest_neighbour", "pair_covariance", "joint_distance",
@@ -273,13 +274,20 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
             # incremental Cholesky of the joint covariance with pair (i, j) appended
             cq = C[np.ix_(idx, [2 * j, 2 * j + 1])] if idx else np.zeros((0, 2))
             Cqq = C[2 * j:2 * j + 2, 2 * j:2 * j + 2] + R[i]
-            B = np.linalg.solve(L, cq).T if idx else np.zeros((2, 0))   # 2 x 2m
+            if idx:                                        # B^T = L^-1 C_q, 2m x 2
+                Bt = np.array(cq, dtype=float)
+                solve_lower(L, Bt)
+                B = Bt.T
+            else:
+                B = np.zeros((2, 0))
             M = Cqq - B @ B.T
             try:
                 Lc = np.linalg.cholesky(0.5 * (M + M.T))
             except np.linalg.LinAlgError:
                 continue
-            v = np.linalg.solve(Lc, y[i, j] - B @ w)
+            v = (y[i, j] - B @ w)[:, None]                 # L_c^-1 (y - B w)
+            solve_lower(Lc, v)
+            v = v[:, 0]
             dnew = dist + float(v @ v)
             if dnew >= thresholds[pairs + 1]:
                 continue                                   # not jointly compatible

@@ -14,7 +14,8 @@ Each kernel is the algebra its docstring gives, on checked float64 arrays
 - :func:`observe_into`: ``h``, ``H_pose``, ``H_landmark`` of chapter 03;
 - :func:`innovation_covs` and :func:`innovation_distances`: ``S_i = H_i P H_i^T + R_i``,
   ``y_i`` and ``d2_i`` (the gate);
-- :func:`fuse`: the joint update of chapter 05 through the Cholesky factor of S.
+- :func:`fuse`: the joint update of chapter 05 through the Cholesky factor of S, and
+  :func:`solve_lower`, its forward substitution (JCBB's too, chapter 09);
 
 No fast-math: LLVM does not reassociate or fuse these operations, so a
 kernel's scalar arithmetic is IEEE arithmetic in the order written, and
@@ -230,6 +231,18 @@ def innovation_distances(z, h, S, y, d2) -> None:
 
 
 @njit(cache=True)
+def solve_lower(L, B) -> None:
+    """``B <- L^-1 B`` in place for a lower-triangular ``L`` (m x m) and ``B`` (m x k), by
+    forward substitution, O(m^2 k): row r is ``(B_r - sum_{j<r} L_rj B_j) / L_rr``."""
+    for r in range(L.shape[0]):
+        for c in range(B.shape[1]):
+            a = B[r, c]
+            for j in range(r):
+                a -= L[r, j] * B[j, c]
+            B[r, c] = a / L[r, r]
+
+
+@njit(cache=True)
 def fuse(x, P, n: int, slots, Hp, Hl, y, R, subtract: bool):
     """One joint update with m readings (chapter 05); returns ``(ok, NIS, W)``.
 
@@ -312,17 +325,12 @@ def fuse(x, P, n: int, slots, Hp, Hl, y, R, subtract: bool):
                 L[r, q] = acc / L[q, q]
     # W = L^-1 HP and v = L^-1 y, by forward substitution
     W = HP
-    v = np.empty(mm)
+    v = np.empty((mm, 1))
     for r in range(mm):
-        acc = y[r // 2, r % 2]
-        for k in range(r):
-            acc -= L[r, k] * v[k]
-        v[r] = acc / L[r, r]
-        for c in range(n):
-            a = W[r, c]
-            for k in range(r):
-                a -= L[r, k] * W[k, c]
-            W[r, c] = a / L[r, r]
+        v[r, 0] = y[r // 2, r % 2]
+    solve_lower(L, W)
+    solve_lower(L, v)
+    v = v[:, 0]
     nis = 0.0
     for r in range(mm):
         nis += v[r] * v[r]

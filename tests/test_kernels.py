@@ -214,3 +214,13 @@ def test_a_step_with_a_non_finite_wheel_speed_is_refused():
     with pytest.raises(ValueError, match="wheel speeds"):
         s.step(0.1, float("nan"))
     assert s.k == 0 and not s._slip          # nothing drawn, nothing moved
+
+
+def test_solve_lower_is_the_inverse_of_a_lower_triangular_matrix():
+    rng = np.random.default_rng(9)
+    for m, k in [(1, 1), (2, 2), (6, 3), (12, 40)]:
+        L = np.tril(rng.normal(size=(m, m))) + m * np.eye(m)
+        B = rng.normal(size=(m, k))
+        X = B.copy()
+        kernels.solve_lower(L, X)
+        np.testing.assert_allclose(L @ X, B, rtol=1e-12, atol=1e-12)
