@@ -779,11 +779,16 @@ class _EKFBase:
             out.append(("new", mid))
         return out
 
+    def _initial_landmark(self, marker_id: int, z: np.ndarray
+                          ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+        """A new landmark's mean and the Jacobians of its initialisation, ``(m, J1, J2)``:
+        the inverse observation ``g(x_B, z)`` and its Jacobians at the current pose (ch. 04)."""
+        pose = self._x[:3].copy()
+        return inverse_observe(pose, z), *inverse_observation_jacobians(pose, z)
+
     def _add_landmark(self, marker_id: int, z: np.ndarray, R: np.ndarray) -> None:
         """Append a landmark from the current pose and reading z (chapter 04)."""
-        pose = self._x[:3].copy()
-        m = inverse_observe(pose, z)
-        J1, J2 = inverse_observation_jacobians(pose, z)
+        m, J1, J2 = self._initial_landmark(marker_id, z)
         n = self._n
         self._reserve(n + 2)
         self._augment_cov(J1, J2, R)
@@ -1220,13 +1225,20 @@ class IdealEKFSLAM(EKFSLAM):
     """EKF SLAM linearised about the TRUE state: a diagnostic only a simulation can run (ch. 06).
 
     It is given the true trajectory and the true map. The means move with
-    ``f`` at the estimate, as in EKF SLAM; everything the filter linearises is
-    linearised at the truth instead of at the estimate:
+    ``f`` at the estimate, as in EKF SLAM; what the filter linearises is
+    linearised at the truth instead of at the estimate (a new landmark's
+    initialisation only with ``landmark_init="truth"``):
 
     - the motion Jacobian from the true poses, ``A_k = [[1, 0, -(y_{k+1} -
       y_k)], [0, 1, x_{k+1} - x_k], [0, 0, 1]]`` (so that the Jacobians chain
       exactly), ``W`` at the true heading;
     - each reading's Jacobians ``H_t`` at the true pose and the true landmark;
+    - with ``landmark_init="truth"``, a new landmark's initialisation too:
+      ``J1``, ``J2`` at the true pose and the true reading ``z_t = h(x_t, m_t)``
+      and the mean by the first-order expansion ``m_t + J1 (x - x_t) + J2 (z -
+      z_t)``. By default (``"estimate"``) a new landmark is placed and its
+      covariance built at the *estimated* pose, as in EKF SLAM: the one step of
+      this filter that is not linearised at the truth;
     - with ``innovation="truth"`` (default) also the predicted reading, by its
       first-order expansion about the truth, ``h(x_t) + H_t (x - x_t)``, so that
       ``y = z - h(x_t) - H_t (x - x_t)`` is exactly what a Kalman filter of the
@@ -1254,10 +1266,12 @@ class IdealEKFSLAM(EKFSLAM):
         The time of ``x0``; each :meth:`predict` adds its ``dt``.
     innovation : {"truth", "estimate"}
         How the predicted reading is formed (see above).
+    landmark_init : {"estimate", "truth"}
+        Where a new landmark's initialisation is linearised (see above).
     """
 
     def __init__(self, *args, truth, landmarks, t0: float = 0.0, innovation: str = "truth",
-                 **kwargs):
+                 landmark_init: str = "estimate", **kwargs):
         if not callable(truth):
             raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
         super().__init__(*args, **kwargs)               # EKFSLAM's constructor
@@ -1267,6 +1281,23 @@ class IdealEKFSLAM(EKFSLAM):
         if innovation not in ("truth", "estimate"):
             raise ValueError(f"innovation: expected 'truth' or 'estimate', got {innovation!r}")
         self.innovation = innovation
+        if landmark_init not in ("truth", "estimate"):
+            raise ValueError(f"landmark_init: expected 'truth' or 'estimate', got "
+                             f"{landmark_init!r}")
+        self.landmark_init = landmark_init
+
+    def _initial_landmark(self, marker_id, z):
+        """With ``landmark_init="truth"``: the initialisation linearised about the truth."""
+        if self.landmark_init != "truth" or marker_id not in self._true_map:
+            return super()._initial_landmark(marker_id, z)
+        pt, mt = self._true_pose(self.t), self._true_map[marker_id]
+        zt = observe_landmarks(pt, mt[None, :])[0][0]
+        J1, J2 = inverse_observation_jacobians(pt, zt)
+        dp = self._x[:3] - pt
+        dp[2] = wrap_angle(dp[2])
+        dz = np.asarray(z, dtype=float) - zt
+        dz[1] = wrap_angle(dz[1])
+        return mt + J1 @ dp + J2 @ dz, J1, J2
 
     def _true_pose(self, t: float) -> np.ndarray:
         return as_vector("truth(t)", self._truth(t), 3)

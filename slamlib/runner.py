@@ -363,14 +363,17 @@ def fej_slam(run: Run, **kwargs) -> Trace:
     return _slam_with(FEJEKFSLAM, run, {}, **kwargs)
 
 
-def ideal_slam(run: Run, **kwargs) -> Trace:
+def ideal_slam(run: Run, *, innovation: str = "truth", landmark_init: str = "estimate",
+               **kwargs) -> Trace:
     """:func:`slam` with :class:`~slamlib.ekf.IdealEKFSLAM`: Jacobians at the run's truth (ch. 06).
 
     The filter is given the run's true trajectory (:func:`truth_function`) and
     its world's true map: a diagnostic only a simulated run allows.
+    ``innovation`` and ``landmark_init`` go to the filter.
     """
     extra = {"truth": truth_function(run), "landmarks": run.world().landmarks(),
-             "t0": float(run.enc_t[0])}
+             "t0": float(run.enc_t[0]), "innovation": innovation,
+             "landmark_init": landmark_init}
     return _slam_with(IdealEKFSLAM, run, extra, **kwargs)
 
 

@@ -36,7 +36,7 @@ from .validate import as_covariance
 __all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "Reobservation",
            "reobservation", "map_jobs"]
 
-_METHODS = ("localization", "slam", "fej", "ideal")
+_METHODS = ("localization", "slam", "fej", "ideal", "ideal_init")
 
 
 # --------------------------------------------------------------------------- Monte-Carlo NEES
@@ -49,7 +49,9 @@ class NEESStudy:
     scenario : str
         The scenario re-simulated (:data:`slamlib.sim.SCENARIOS`).
     method : str
-        ``"localization"`` (map-based EKF), ``"slam"``, ``"fej"`` or ``"ideal"``.
+        ``"localization"`` (map-based EKF), ``"slam"``, ``"fej"``, ``"ideal"`` or
+        ``"ideal_init"`` (the ideal filter with its landmarks' initialisation linearised at
+        the truth too).
     seeds : tuple of int
         One seed per run.
     t : numpy.ndarray (T,)
@@ -107,14 +109,16 @@ def sample_trace(trace: ex.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
 
 
 #: Filter names of :func:`monte_carlo` -> the runner of :mod:`slamlib.runner`.
-_RUNNERS = {"localization": "localization", "slam": "slam", "fej": "fej_slam",
-            "ideal": "ideal_slam"}
+_RUNNERS = {"localization": ("localization", {}), "slam": ("slam", {}),
+            "fej": ("fej_slam", {}), "ideal": ("ideal_slam", {}),
+            "ideal_init": ("ideal_slam", {"landmark_init": "truth"})}
 
 
 def _run_method(run: Run, method: str, gate, Q=None):
     if method not in _METHODS:
         raise ValueError(f"method: expected one of {_METHODS}, got {method!r}")
-    return getattr(ex, _RUNNERS[method])(run, gate=gate, Q=Q)
+    name, options = _RUNNERS[method]
+    return getattr(ex, name)(run, gate=gate, Q=Q, **options)
 
 
 def _one_seed(job: tuple) -> tuple:
@@ -154,11 +158,13 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "s
     ----------
     scenario_name : str
         A key of :data:`slamlib.sim.SCENARIOS` (``"arena_loop"``...).
-    methods : sequence of {"localization", "slam", "fej", "ideal"}
+    methods : sequence of {"localization", "slam", "fej", "ideal", "ideal_init"}
         The filters (all see the same simulated runs): the map-based EKF, EKF
         SLAM, First-Estimates-Jacobian EKF SLAM (:class:`slamlib.ekf.FEJEKFSLAM`)
         and the ideal EKF SLAM linearised at the truth
-        (:class:`slamlib.ekf.IdealEKFSLAM`, a simulation-only diagnostic).
+        (:class:`slamlib.ekf.IdealEKFSLAM`, a simulation-only diagnostic), its
+        new landmarks initialised at the estimate (``"ideal"``) or linearised
+        about the truth too (``"ideal_init"``, ``landmark_init="truth"``).
     seeds : iterable of int
         One independent run per seed.
     step : float

@@ -154,6 +154,37 @@ def test_ideal_jacobians_are_the_truths():
                      landmarks={})
 
 
+def test_ideal_landmark_initialisation_at_the_truth():
+    """landmark_init="truth": J1, J2 at the true pose and reading, the mean by the first-order
+    expansion about the truth; by default the estimate's initialisation, as in EKF SLAM."""
+    from slamlib.models import inverse_observation_jacobians, inverse_observe, observe
+
+    truth = {0: np.array([0.0, 0.0, 0.0])}
+    marks = {7: np.array([2.0, 1.0])}
+    x0 = np.array([0.05, -0.03, 0.04])                   # the estimate, off the truth
+    P0, Qm, Rm = np.diag([1e-3, 2e-3, 3e-3]), np.eye(2) * 1e-4, np.diag([0.01, 1e-3])
+    z = np.array([2.3, 0.41])
+    kw = dict(truth=lambda t: truth[0], landmarks=marks)
+    ideal = IdealEKFSLAM(x0, P0, Qm, Rm, landmark_init="truth", **kw)
+    ideal.update([7], [z])
+    zt = observe(truth[0], marks[7])
+    J1, J2 = inverse_observation_jacobians(truth[0], zt)
+    assert not np.allclose(J1, inverse_observation_jacobians(x0, z)[0])
+    np.testing.assert_allclose(ideal.P[3:, 3:], J1 @ P0 @ J1.T + J2 @ Rm @ J2.T, rtol=1e-12)
+    np.testing.assert_allclose(ideal.P[3:, :3], J1 @ P0, rtol=1e-12)
+    expansion = marks[7] + J1 @ (x0 - truth[0]) + J2 @ (z - zt)
+    np.testing.assert_allclose(ideal.x[3:], expansion, rtol=1e-12)
+    assert not np.allclose(ideal.x[3:], inverse_observe(x0, z), atol=1e-4)
+    # the default is EKF SLAM's initialisation, bit for bit
+    default = IdealEKFSLAM(x0, P0, Qm, Rm, **kw)
+    slam = EKFSLAM(x0, P0, Qm, Rm)
+    default.update([7], [z])
+    slam.update([7], [z])
+    assert np.array_equal(default.x, slam.x) and np.array_equal(default.P, slam.P)
+    with pytest.raises(ValueError, match="landmark_init"):
+        IdealEKFSLAM(x0, P0, Qm, Rm, landmark_init="map", **kw)
+
+
 def test_fej_is_consistent_where_ekf_slam_is_not():
     # arena loop, sigma_wheel 0.10 (the filters' Q matched), 30 seeds: the Monte-Carlo average
     # of the pose NEES at one instant (the end of the common time grid) against the 95 % band

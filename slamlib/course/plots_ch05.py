@@ -121,7 +121,7 @@ def plot_nees_monte_carlo(studies, *, axes=None, prob: float = 0.95, title: str 
     fig = axes[0].figure
     n = studies[0].n_runs
     names = {"localization": "map-based EKF", "slam": "EKF SLAM", "fej": "FEJ EKF SLAM",
-             "ideal": "ideal EKF SLAM"}
+             "ideal": "ideal EKF SLAM", "ideal_init": "ideal EKF SLAM, landmarks at the truth"}
     for ax, heading, dof in ((axes[0], False, 3), (axes[1], True, 1)):
         lo, hi = chi2_band(dof, n, prob)
         t_all = np.concatenate([s.t for s in studies])

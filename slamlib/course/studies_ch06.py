@@ -155,14 +155,17 @@ def landmark_placement(trace: ex.Trace, world) -> list[LandmarkPlacement]:
 #: know the slip); ``"matched"`` follows the run.
 CH06_STUDIES = {
     "arena_0.02": ("arena_loop", 0.02, "matched", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.10": ("arena_loop", 0.10, "matched", 0.95, ("slam", "fej", "ideal")),
-    "arena_0.14": ("arena_loop", 0.14, "matched", 0.95, ("slam", "fej", "ideal")),
+    "arena_0.10": ("arena_loop", 0.10, "matched", 0.95, ("slam", "fej", "ideal",
+                   "ideal_init")),
+    "arena_0.14": ("arena_loop", 0.14, "matched", 0.95, ("slam", "fej", "ideal",
+                   "ideal_init")),
     "arena_0.10_nominalQ": ("arena_loop", 0.10, "nominal", 0.95, ("slam", "fej", "ideal")),
     "arena_0.14_nominalQ": ("arena_loop", 0.14, "nominal", 0.95, ("slam", "fej", "ideal")),
     "arena_0.14_gate0.99999": ("arena_loop", 0.14, "matched", 0.99999, ("slam", "fej")),
     "arena_0.14_nominalQ_gate0.99999": ("arena_loop", 0.14, "nominal", 0.99999, ("slam",)),
     "laps_0.02": ("arena_laps", 0.02, "matched", 0.95, ("slam", "fej", "ideal")),
-    "laps_0.10": ("arena_laps", 0.10, "matched", 0.95, ("slam", "fej", "ideal")),
+    "laps_0.10": ("arena_laps", 0.10, "matched", 0.95, ("slam", "fej", "ideal",
+                  "ideal_init")),
 }
 #: The seeds of chapter 06's studies.
 CH06_SEEDS = tuple(range(1000, 1100))
