@@ -208,8 +208,8 @@ def course_nees_fej(ctx: _Context):
     names = {"slam": "EKF SLAM", "ideal": "ideal (Jacobians at the truth)", "fej": "FEJ EKF SLAM",
              "ideal_init": "ideal, landmarks initialised at the truth too"}
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plots.DPI)
-    for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10"),
-                                        ("laps_0.10", "three laps, sigma_wheel 0.10"))):
+    for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10 m/s"),
+                                        ("laps_0.10", "three laps, sigma_wheel 0.10 m/s"))):
         ms = stored["studies"][key]["methods"]
         curves = {names[m]: (np.array(s["t"]), np.array(s["avg"]), np.array(s["avg_heading"]))
                   for m, s in ms.items()}
