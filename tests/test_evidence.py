@@ -15,6 +15,7 @@ from slamlib.runs import load_run
 
 
 @pytest.mark.parametrize("name, seeds", [("arena_localization", (1, 64)),
+                                         ("arena_sign_error", (1, 77)),
                                          ("arena_slam", (1, 37)),
                                          ("arena_slam_misreads", (42,)),
                                          ("arena_camera", (23,)),
@@ -127,3 +128,18 @@ def test_rank():
     assert ev.rank([1, 2, 3, 4], 3) == (2, 0.5)
 
 # that the library never imports the course is tested in test_layout.py (every import parsed)
+
+
+def test_broken_filter_has_the_reports_H_and_the_stored_tracking_run_is_the_library():
+    """BrokenReportHLocalization's H_pose is errata.printed_H_pose number for number; the
+    sign-error study's library filter started at the truth is arena_localization's
+    clean/0.95 filter (the same numbers, computed twice)."""
+    from slamlib.course.errata import CHECK_LANDMARK, CHECK_POSE, printed_H_pose
+
+    f = ev.BrokenReportHLocalization(CHECK_POSE, np.eye(3), np.eye(2), np.eye(2),
+                                     {0: CHECK_LANDMARK})
+    _, Hp, _ = f.reading_model(CHECK_POSE, CHECK_LANDMARK[None, :])
+    assert np.array_equal(Hp[0], printed_H_pose(CHECK_POSE, CHECK_LANDMARK))
+    a = ev.load_study("arena_sign_error")["runs"][5]["tracking/library"]
+    b = ev.load_study("arena_localization")["runs"][5]["clean/0.95"]
+    assert a == {k: b[k] for k in a}

@@ -72,6 +72,22 @@ def test_inverse_observation_checker_wrong_J2_is_not_called_transposed(capsys):
     assert "sign flipped" in out and "transposed" not in out
 
 
+def test_inverse_observation_checker_names_a_J2_entry_with_the_wrong_sign(capsys):
+    # written by hand with the sign of d x_F / d beta slipped
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+
+    def mine(pose, z):
+        rho, a = z[0], pose[2] + z[1]
+        J1 = np.array([[1.0, 0.0, -rho * np.sin(a)], [0.0, 1.0, rho * np.cos(a)]])
+        J2 = np.array([[np.cos(a), rho * np.sin(a)], [np.sin(a), rho * np.cos(a)]])
+        return J1, J2
+
+    assert check_inverse_observation_jacobians(mine) is False
+    out = capsys.readouterr().out
+    assert "J2[0,1] = d x_F / d beta = -rho sin(theta + beta) (yours has the opposite sign)" in out
+    assert "transposed" not in out
+
+
 @pytest.mark.parametrize("kind", ["none", "raise"])
 def test_inverse_observation_checker_stub_is_not_written_yet(capsys, kind):
     from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
@@ -223,6 +239,52 @@ def test_observation_checker_hints_dbearing_dtheta(capsys):
     out = capsys.readouterr().out
     assert "H_pose[1,2]" in out and "d bearing / d theta = -1" in out
     assert "sqrt(q)" not in out
+
+
+def _written_out(sign_bx=1.0, sign_dy_q=1.0, range_den="r", sign_dby=1.0):
+    """A student's H_pose, H_landmark written out by hand, with one knob per slip."""
+    def mine(pose, landmark):
+        dx, dy = landmark[0] - pose[0], landmark[1] - pose[1]
+        q = dx * dx + dy * dy
+        den = np.sqrt(q) if range_den == "r" else q
+        Hp = np.array([[sign_bx * -dx / den, -dy / den, 0.0],
+                       [sign_dy_q * dy / q, -dx / q, -1.0]])
+        Hl = np.array([[dx / den, dy / den], [-dy / q, sign_dby * dx / q]])
+        return Hp, Hl
+    return mine
+
+
+@pytest.mark.parametrize("slip, words", [
+    ({"sign_dy_q": -1.0}, "H_pose[1,0] = d bearing / d x = dy/q (yours has the opposite sign)"),
+    ({"sign_dby": -1.0}, "H_landmark[1,1] = d bearing / d y_F = dx/q (yours has the opposite"),
+    ({"sign_bx": -1.0}, "H_pose[0,0] = d range / d x = -dx/sqrt(q)"),
+    ({"range_den": "q"}, "the range row is [dx/sqrt(q), dy/sqrt(q)]"),
+])
+def test_observation_checker_names_the_entry_and_its_formula(slip, words, capsys):
+    # a single slip that none of the report's errors explains gets the entry's own formula,
+    # not the generic hint
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+
+    assert check_observation_jacobians(_written_out()) is True
+    capsys.readouterr()
+    assert check_observation_jacobians(_written_out(**slip)) is False
+    out = capsys.readouterr().out
+    assert words in out, out
+    assert "H_landmark is minus the first two columns" not in out
+
+
+def test_observation_checker_zero_entry_gets_its_reason(capsys):
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+    from slamlib.models import observation_jacobians
+
+    def range_turns(pose, landmark):
+        Hp, Hl = observation_jacobians(pose, landmark)
+        Hp[0, 2] = np.hypot(*(np.asarray(landmark) - pose[:2]))   # "range times dtheta"
+        return Hp, Hl
+
+    assert check_observation_jacobians(range_turns) is False
+    out = capsys.readouterr().out
+    assert "H_pose[0,2] = d range / d theta = 0: turning in place" in out, out
 
 
 def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys):
