@@ -15,16 +15,16 @@ def plot_encoder_counters(run):
     """The run's 16-bit counters against time (they wrap) and each wheel's rim distance from
     the increments that :func:`slamlib.models.tick_difference` unwraps. Returns the figure."""
     tick = 2 * np.pi * KOBUKI_WHEEL_RADIUS / KOBUKI_TICKS_PER_REV
-    fig, axes = plt.subplots(1, 2, figsize=(8, 3), dpi=80)
+    fig, axes = plt.subplots(1, 2, figsize=(7.6, 3.0), dpi=100)
     axes[0].plot(run.enc_t, run.ticks_R, label="right counter")
     axes[0].plot(run.enc_t, run.ticks_L, label="left counter")
     axes[0].set(xlabel="t (s)", ylabel="raw counter", title="16-bit counters wrap")
-    axes[0].legend(fontsize=8)
+    axes[0].legend(fontsize=9, loc="lower right")
     dR = tick_difference(run.ticks_R[1:], run.ticks_R[:-1])
     dL = tick_difference(run.ticks_L[1:], run.ticks_L[:-1])
     axes[1].plot(run.enc_t[1:], np.cumsum(dR) * tick, label="right wheel")
     axes[1].plot(run.enc_t[1:], np.cumsum(dL) * tick, label="left wheel")
     axes[1].set(xlabel="t (s)", ylabel="rim distance (m)", title="after tick_difference")
-    axes[1].legend(fontsize=8)
+    axes[1].legend(fontsize=9)
     fig.tight_layout()
     return fig
