@@ -86,6 +86,6 @@ def check_history_index(fn, seed: int = 8, verbose: bool = True) -> bool:
                             "(0 if the frame is older than all of them, len(times) if newer)"]:
             say(f"  Hint: {why}.")
         return False
-    say(f"{name}: correct. Right place at {len(cases)} capture times, with ties, an empty "
-        "history and frames older or newer than every event.")
+    say(f"{name}: correct. Right place at {len(cases)} capture times,")
+    say("  with ties, an empty history and frames older or newer than every event.")
     return True
