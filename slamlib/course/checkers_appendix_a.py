@@ -9,8 +9,32 @@ import numpy as np
 
 from ..checks import compare_jacobians
 from .harness import call, name_of, not_ready, printer
+from .predictions import check_prediction
 
-__all__ = ["check_numerical_jacobian"]
+__all__ = ["check_numerical_jacobian", "check_best_step", "BEST_STEP_ACCEPT", "WHY_BEST_STEP"]
+
+#: The steps a good argument leads to: kept here, not in the notebook, so that the question
+#: does not show its answer above the cell that asks for it.
+BEST_STEP_ACCEPT = (1e-6, 1e-4)
+#: The argument, printed once the student has committed to a number.
+WHY_BEST_STEP = (
+    "The truncation error of a central difference is about |f'''| eps^2 / 6, the rounding "
+    "error about u |f| / eps (u = 2.2e-16, the spacing of doubles near 1). Their sum is "
+    "smallest where both are equal, at eps ~ (3u)^(1/3), about 1e-5 for quantities of order 1, "
+    "with an error of about u^(2/3) ~ 1e-11. A one-sided difference would do best near "
+    "sqrt(u) ~ 1e-8, with an error of about 1e-8.")
+
+
+def check_best_step(prediction, measure, verbose: bool = True) -> bool:
+    """Appendix A's predict-then-measure: the finite-difference step with the smallest error.
+
+    ``prediction`` is the student's step or None; ``measure() -> (value, text)`` tries the
+    steps (run only once a prediction is written). The accepted range is
+    :data:`BEST_STEP_ACCEPT`; the argument :data:`WHY_BEST_STEP` is printed in any case
+    (:func:`slamlib.course.predictions.check_prediction`).
+    """
+    return check_prediction(prediction, measure, BEST_STEP_ACCEPT, WHY_BEST_STEP,
+                            name="best finite-difference step", verbose=verbose)
 
 
 def check_numerical_jacobian(fn, verbose: bool = True, eps: float = 1e-3,

@@ -137,6 +137,6 @@ def check_joint_distance(fn, n_cases: int = 8, seed: int = 9, verbose: bool = Tr
                 say("  Hint: S = H P H^T + blockdiag(R_i), then D2 = y^T S^-1 y with "
                     "y = y.reshape(-1).")
             return False
-    say(f"{name}: correct. D2 matches at {n_cases} hypotheses of 2 and 3 pairings, where the "
-        f"sum of the individual distances would not.")
+    say(f"{name}: correct. D2 matches at {n_cases} hypotheses of 2 and 3 pairings,")
+    say("  where the sum of the individual distances would not.")
     return True
