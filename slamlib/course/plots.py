@@ -23,6 +23,9 @@ __all__ = ["FIGSIZE", "DPI", "TRUTH_STYLE", "ESTIMATE_STYLE", "world_axes", "fin
 #: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
 FIGSIZE = (6.4, 4.8)
 
+#: A figure shows at FIGSIZE x DPI pixels; in a notebook its PNG holds twice as many pixels per
+#: side (:func:`slamlib.course.inline_figures.sharp_inline_figures`), sharp on high-resolution
+#: screens and when the web edition scales it down to its column.
 DPI = 80
 
 TRUTH_STYLE = {"color": "tab:red", "lw": 1.6, "label": "ground truth"}
