@@ -61,7 +61,8 @@ latex_elements = {
     "pointsize": "10pt",
     "fvset": r"\fvset{fontsize=\footnotesize}",   # printed outputs: about 95 characters a line
     "sphinxsetup": "verbatimwrapslines=true, verbatimforcewraps=true",
-    "preamble": r"\setcounter{tocdepth}{1}",
+    # the chapters and their sections carry their own numbers ("03 · ...", "2. ...")
+    "preamble": r"\setcounter{tocdepth}{1}\setcounter{secnumdepth}{-1}",
     "printindex": "",
 }
 latex_domain_indices = False

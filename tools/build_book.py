@@ -50,7 +50,7 @@ from execute_notebooks import merge_streams  # noqa: E402  (one join of split pr
 
 WIDGET_REPR = re.compile(r"^(VBox|HBox|interactive)\(children=")
 #: A gap of two or more spaces between two printed words: the mark of aligned columns.
-COLUMN_GAP = re.compile(r"\S {2,}\S")
+COLUMN_GAP = re.compile(r"(?<=\S) {2,}(?=\S)")
 GETSOURCE = re.compile(r"getsource\(\s*([\w.]+)")
 FOLDS = {"solution": "solution", "answer": "answer", "evidence": "evidence"}
 PDF_NAME = "ekf-slam-aruco"
@@ -129,6 +129,65 @@ def _text_output(text: str, stream: str = "stdout", source_of: str | None = None
     return nbformat.v4.new_output("display_data", data={"text/html": rendered, "text/plain": text})
 
 
+#: Printed text in the PDF: the font size a block needs so that its widest table line fits
+#: the A4 text width (characters per line), prose lines wrap at any size.
+PDF_SIZES = ((110, None), (126, r"\scriptsize"), (175, r"\tiny"))
+
+
+def text_markdown_pdf(text: str) -> str:
+    """Printed text for the PDF: a verbatim block, in a smaller font when a table needs it."""
+    widest = max((len(line) for kind, lines in text_blocks(text) if kind == "table"
+                  for line in lines), default=0)
+    size = next((sz for width, sz in PDF_SIZES if widest <= width), PDF_SIZES[-1][1])
+    runs = re.findall(r"~{3,}", text)
+    fence = "~" * max(3, *(len(r) + 1 for r in runs)) if runs else "~~~"
+    block = f"{fence}text\n{text.rstrip(chr(10))}\n{fence}\n"
+    if size is None:
+        return block
+    return (f"```{{raw}} latex\n\\begingroup\\fvset{{fontsize={size}}}\n```\n\n{block}\n"
+            "```{raw} latex\n\\endgroup\n```\n")
+
+
+def _top_level_splits(tex: str) -> list[int]:
+    """Positions of ``\\quad`` / ``\\qquad`` outside braces and environments."""
+    depth, out, i = 0, [], 0
+    while i < len(tex):
+        if tex.startswith("\\begin{", i):
+            depth += 1
+        elif tex.startswith("\\end{", i):
+            depth -= 1
+        elif tex[i] == "{":
+            depth += 1
+        elif tex[i] == "}":
+            depth -= 1
+        elif depth == 0 and re.match(r"\\q?quad(?![a-zA-Z])", tex[i:]):
+            out.append(i)
+        i += 1
+    return out
+
+
+def break_long_equation(tex: str, width: int = 100) -> str:
+    """A long one-line display equation made of parts set apart by ``\\quad`` becomes one part a
+    line (``gathered``): print cannot scroll, and a line wider than the page is cut."""
+    flat = " ".join(tex.split())
+    if len(flat) <= width or "\\\\" in flat or not _top_level_splits(flat):
+        return tex
+    parts, last = [], 0
+    for pos in _top_level_splits(flat):
+        parts.append(flat[last:pos])
+        last = pos + len(re.match(r"\\q?quad", flat[pos:]).group(0))
+    parts.append(flat[last:])
+    lines = [p.strip() for p in parts if p.strip()]
+    return "\\begin{gathered}" + " \\\\ ".join(lines) + "\\end{gathered}"
+
+
+def long_equations_broken(md: str) -> str:
+    """Every ``$$ ... $$`` display equation of a markdown cell through
+    :func:`break_long_equation`."""
+    return re.sub(r"\$\$(.+?)\$\$", lambda m: "$$" + break_long_equation(m.group(1)) + "$$", md,
+                  flags=re.S)
+
+
 # --------------------------------------------------------------------------- cells
 
 def _fold(cell, what: str) -> None:
@@ -192,6 +251,19 @@ def _outputs(cell) -> list:
     return outputs
 
 
+def _outputs_pdf(cell) -> list:
+    outputs = []
+    for out in merge_streams([o for o in cell.outputs if not _is_widget_stand_in(o)]):
+        data = out.get("data", {})
+        text = out.get("text") if out.get("output_type") == "stream" else (
+            data.get("text/plain") if set(data) == {"text/plain"} else None)
+        if text is not None:
+            out = nbformat.v4.new_output("display_data", data={
+                "text/markdown": text_markdown_pdf(text), "text/plain": text})
+        outputs.append(out)
+    return outputs
+
+
 def prepare_notebook(nb: nbformat.NotebookNode, pdf: bool = False) -> nbformat.NotebookNode:
     """Transform a copy of a chapter for the book (in place; see the module's docstring)."""
     for cell in nb.cells:
@@ -203,9 +275,10 @@ def prepare_notebook(nb: nbformat.NotebookNode, pdf: bool = False) -> nbformat.N
             _fold(cell, folds[0])
         if cell.cell_type == "markdown":
             cell.source = display_math_apart(cell.source)
+            if pdf:
+                cell.source = long_equations_broken(cell.source)
         if cell.cell_type == "code":
-            cell.outputs = _outputs(cell) if not pdf else [
-                o for o in merge_streams(cell.outputs) if not _is_widget_stand_in(o)]
+            cell.outputs = _outputs_pdf(cell) if pdf else _outputs(cell)
     return nb
 
 
