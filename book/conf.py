@@ -16,6 +16,7 @@ extensions = ["myst_nb", "sphinx_copybutton"]
 myst_enable_extensions = ["dollarmath", "amsmath"]
 nb_execution_mode = "off"              # the committed outputs are the book's outputs
 nb_merge_streams = True
+nb_render_markdown_format = "myst"     # the PDF's printed text (build_book.py) uses {raw} latex
 nb_ipywidgets_js = {}                  # widget views are dropped; no widget JavaScript from a CDN
 suppress_warnings = ["mystnb.unknown_mime_type"]
 

@@ -78,8 +78,16 @@ class Result:
     feedback: list[str] = field(default_factory=list)
 
 
+def _name(func: ast.expr) -> str:
+    """A called function's own name: ``check_x`` for ``check_x(...)`` and ``mod.check_x(...)``."""
+    if isinstance(func, ast.Name):
+        return func.id
+    return func.attr if isinstance(func, ast.Attribute) else ""
+
+
 def _checker_call(source: str) -> ast.Call | None:
-    """The last call of a function named ``check...`` among the cell's statements."""
+    """The last call of a function named ``check...`` (or ``module.check...``) among the cell's
+    statements."""
     try:
         tree = ast.parse(source)
     except SyntaxError:
@@ -87,8 +95,7 @@ def _checker_call(source: str) -> ast.Call | None:
     found = None
     for stmt in tree.body:
         for node in ast.walk(stmt):
-            if (isinstance(node, ast.Call) and isinstance(node.func, ast.Name)
-                    and node.func.id.startswith("check")):
+            if isinstance(node, ast.Call) and _name(node.func).startswith("check"):
                 found = node
                 break
     return found
@@ -107,7 +114,7 @@ def exercises(reference: Path) -> list[Exercise]:
                 call = _checker_call(cell.source)
                 if call is not None:
                     first = call.args[0] if call.args else None
-                    name = first.id if isinstance(first, ast.Name) else call.func.id
+                    name = first.id if isinstance(first, ast.Name) else _name(call.func)
                     found.append(Exercise(
                         notebook=path.name, key=f"{chapter}.{name}",
                         call=ast.get_source_segment(cell.source, call), cell_id=cell.get("id"),
@@ -197,10 +204,13 @@ def _run(nb: nbformat.NotebookNode, workdir: Path, timeout: int, skip: set[int])
                 cell.outputs = []
                 if _timed_out(client, cell, i, timeout):
                     # interrupted: does the kernel answer again?
-                    probe = nbformat.v4.new_code_cell("pass")
+                    nb.cells.append(nbformat.v4.new_code_cell("pass"))
                     client.timeout = 30
-                    wedged = _timed_out(client, probe, len(nb.cells), 30)
-                    client.timeout = timeout
+                    try:
+                        wedged = _timed_out(client, nb.cells[-1], len(nb.cells) - 1, 30)
+                    finally:
+                        nb.cells.pop()
+                        client.timeout = timeout
                     if wedged:
                         return i
     except DeadKernelError:
@@ -267,7 +277,8 @@ def grade_notebook(path: Path, todo: list[Exercise], timeout: int) -> dict[str, 
         cell = graded.cells[i]
         first = (cell.source.strip().splitlines() or [""])[0][:70]
         why = _text(cell.outputs).strip().splitlines()
-        problems.append(f"cell {i} ({first!r}) was stopped: {why[-1] if why else 'no reply'}")
+        problems.append(f"cell {i} ({first!r}) was left out, the kernel restarted without it: "
+                        f"{why[-1] if why else 'no reply'}; then:")
     verdict = re.compile(rf"^{re.escape(token)} (\S+) (PASS|FAIL)$", re.M)
     for cell in graded.cells:
         key = cell.metadata.get("grader")
@@ -297,13 +308,14 @@ def feedback_text(student: str, found: list[Exercise], results: dict[str, Result
     total = sum(r.points for r in results.values())
     lines = [f"# Feedback for {student}", "",
              f"Total: {total:g} of {sum(e.points for e in found):g} points.", ""]
-    for nb_name in dict.fromkeys(e.notebook for e in found):
+    chapters = list(dict.fromkeys(e.notebook for e in found))
+    absent = [n for n in chapters if n not in submitted]
+    if absent:
+        lines += [f"Not submitted (no points): {', '.join(absent)}.", ""]
+    for nb_name in [n for n in chapters if n in submitted]:
         todo = [e for e in found if e.notebook == nb_name]
         got = sum(results[e.key].points for e in todo)
         lines += [f"## {nb_name}: {got:g} of {sum(e.points for e in todo):g}", ""]
-        if nb_name not in submitted:
-            lines += ["Not submitted.", ""]
-            continue
         for e in todo:
             r = results[e.key]
             lines.append(f"- `{e.key}` ({e.call.split('(')[0]}): {r.points:g} of {e.points:g}")
