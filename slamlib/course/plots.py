@@ -264,7 +264,7 @@ def finish_top_view(ax, title: str | None = None, legend_outside: bool = False):
     if legend_outside:
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     else:
-        ax.legend(loc="best", fontsize=7)
+        ax.legend(loc="best", fontsize=8)
     if title:
         ax.set_title(title)
     return ax

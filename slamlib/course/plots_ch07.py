@@ -111,7 +111,7 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
                         label=f"{nsigma:g} x return threshold")
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
-    axes[2].legend(fontsize=7, loc="upper left")
+    axes[2].legend(fontsize=8, loc="upper left")
     if title:
         axes[0].set_title(title)
     if own:
