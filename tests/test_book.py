@@ -335,25 +335,3 @@ def test_landing_page_has_no_placeholder(site, browser):
     assert "<this repository>" not in text and "<it>" not in text
     assert not re.search(r"<[a-z][a-z ]*>", text), re.search(r"<[a-z][a-z ]*>", text)
     assert "make lab" in text and "00 · Frames" in text
-
-
-def test_figures_are_drawn_sharp_in_a_kernel(tmp_path):
-    """Importing slamlib.course in a kernel makes inline figures pixel-doubled PNGs that
-    show at their nominal size (figsize x dpi)."""
-    import base64
-    import struct
-
-    import nbformat
-    from nbclient import NotebookClient
-
-    nb = nbformat.v4.new_notebook(cells=[nbformat.v4.new_code_cell(
-        "import matplotlib.pyplot as plt\nimport slamlib.course\n"
-        "plt.subplots(figsize=(3, 2), dpi=80)\nplt.plot([0, 1])\nplt.show()")])
-    NotebookClient(nb, timeout=120, kernel_name="python3",
-                   resources={"metadata": {"path": str(tmp_path)}}).execute()
-    out = next(o for o in nb.cells[0].outputs if "image/png" in o.get("data", {}))
-    png = base64.b64decode(out["data"]["image/png"])
-    width, height = struct.unpack(">II", png[16:24])
-    shown = out["metadata"]["image/png"]
-    assert (width, height) == (2 * shown["width"], 2 * shown["height"])
-    assert 200 <= shown["width"] <= 240   # 3 in x 80 dpi, trimmed to the drawing
