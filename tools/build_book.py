@@ -148,8 +148,8 @@ def text_markdown_pdf(text: str) -> str:
             "```{raw} latex\n\\endgroup\n```\n")
 
 
-def _top_level_splits(tex: str) -> list[int]:
-    """Positions of ``\\quad`` / ``\\qquad`` outside braces and environments."""
+def _top_level_splits(tex: str, mark: str = r"\\q?quad(?![a-zA-Z])") -> list[int]:
+    """Positions of ``\\quad`` / ``\\qquad`` (or ``mark``) outside braces and environments."""
     depth, out, i = 0, [], 0
     while i < len(tex):
         if tex.startswith("\\begin{", i):
@@ -160,7 +160,7 @@ def _top_level_splits(tex: str) -> list[int]:
             depth += 1
         elif tex[i] == "}":
             depth -= 1
-        elif depth == 0 and re.match(r"\\q?quad(?![a-zA-Z])", tex[i:]):
+        elif depth == 0 and re.match(mark, tex[i:]):
             out.append(i)
         i += 1
     return out
@@ -170,7 +170,7 @@ def break_long_equation(tex: str, width: int = 100) -> str:
     """A long one-line display equation made of parts set apart by ``\\quad`` becomes one part a
     line (``gathered``): print cannot scroll, and a line wider than the page is cut."""
     flat = " ".join(tex.split())
-    if len(flat) <= width or "\\\\" in flat or not _top_level_splits(flat):
+    if len(flat) <= width or _top_level_splits(flat, r"\\\\") or not _top_level_splits(flat):
         return tex
     parts, last = [], 0
     for pos in _top_level_splits(flat):
