@@ -318,12 +318,15 @@ def test_each_chapter_offers_its_notebook_and_copy_buttons(site, browser):
         page = f"chapters/{p.stem}.html"
         browser.get(f"{base}/{page}")
         link = browser.execute_script(
-            "const a = document.querySelector('.download-source-button');"
+            "const a = document.querySelector('a.btn-download-source-button');"
             "return a ? a.href : null;")
         assert link and link.endswith(f"/_sources/chapters/{p.name}"), (page, link)
         served = html / "_sources" / "chapters" / p.name
         assert served.read_bytes() == p.read_bytes(), f"{page}: the download is not the notebook"
     browser.get(f"{base}/{CHAPTER}")
+    assert _click_visible(browser, ".dropdown-download-buttons button"), "no download button"
+    assert [a for a in browser.find_elements("css selector", "a.btn-download-source-button")
+            if a.is_displayed()], "the download menu does not show the notebook"
     copy = browser.execute_script("return document.querySelectorAll('button.copybtn').length")
     assert copy > 10, f"{copy} copy buttons on {CHAPTER}"
 
