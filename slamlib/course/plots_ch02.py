@@ -137,8 +137,8 @@ def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
                     label="fitted $\\sigma_\\rho$ (after the bias correction)")
         ax_b.axhline(np.degrees(model.sigma_bearing), color="k", ls="--", lw=1.2,
                      label="fitted $\\sigma_\\beta$")
-        ax_std.legend(handles=ax_std.get_lines()[-1:], fontsize=8, loc="upper left")
-        ax_b.legend(handles=ax_b.get_lines()[-1:], fontsize=8, loc="upper left")
+        ax_std.legend(handles=ax_std.get_lines()[-1:], fontsize=7, loc="upper left")
+        ax_b.legend(handles=ax_b.get_lines()[-1:], fontsize=7, loc="upper left")
     ax_det.set_ylabel("detection rate")
     ax_det.set_ylim(-0.05, 1.05)
     ax_bias.set_ylabel("range bias (cm)")
@@ -148,9 +148,9 @@ def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
         ax.set_xlabel("true range (m)")
     for ax in (ax_det, ax_bias, ax_std, ax_b):
         ax.grid(True, lw=0.4, alpha=0.5)
-    ax_det.legend(fontsize=8, title="viewing angle", title_fontsize=8)
+    ax_det.legend(fontsize=7, title="viewing angle", title_fontsize=7)
     if model is not None:
-        ax_bias.legend(handles=ax_bias.get_lines()[-1:], fontsize=8, loc="upper left")
+        ax_bias.legend(handles=ax_bias.get_lines()[-1:], fontsize=7, loc="upper left")
     return axes
 
 def plot_detection_scene(world, pose, camera, *, rng=None, zoom=None, title=None):

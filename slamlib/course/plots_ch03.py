@@ -97,7 +97,7 @@ def plot_d2_histogram(ax, d2, *, dof: int = 2, threshold: float | None = None,
         ax.axvline(threshold, color="k", ls="--", lw=0.8, label=f"gate {threshold:.2f}")
     ax.set_xlabel(f"d² (last bin: {clip:g} and above)")
     ax.set_ylabel("density")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     return float(np.mean(d2 >= clip)) if d2.size else float("nan")
 
 def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | None = None,
@@ -123,7 +123,7 @@ def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | 
     ax.set_xlabel(xlabel)
     ax.set_ylabel("runs")
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=7)
     return ax
 
 def plot_interval_rows(ax, names, means, halfwidths, *, expected: float | None = None,
@@ -142,5 +142,5 @@ def plot_interval_rows(ax, names, means, halfwidths, *, expected: float | None =
     ax.set_yticks(y, names)
     ax.set_xlabel(xlabel)
     ax.grid(True, axis="x", lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=7, loc="lower right")
     return ax
