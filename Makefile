@@ -7,7 +7,7 @@ NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
         student runs lab bench clean studies evidence association-study graph-study \
-        graph-mrclam gate-study
+        graph-mrclam gate-study pdf grade
 
 venv: $(STAMP)
 
@@ -50,6 +50,18 @@ check-notebooks: $(STAMP)
 ## The web edition: static HTML of every chapter (committed outputs, not re-executed) in book/_build/html
 book: $(STAMP)
 	$(PY) tools/build_book.py
+
+## The printed edition: the whole course as one PDF, book/_build/pdf/ekf-slam-aruco.pdf (Sphinx's
+## LaTeX builder, XeLaTeX and latexmk: Debian's latexmk texlive-xetex texlive-latex-extra
+## texlive-fonts-recommended fonts-freefont-otf, as .ci/run installs them)
+pdf: $(STAMP)
+	$(PY) tools/build_book.py --pdf
+
+## Grade students' notebooks: make grade SUBMISSIONS=dir [TIMEOUT=seconds per cell, 120]. One folder
+## per student in dir; writes dir/grades.csv and each student's feedback.md beside their work
+grade: $(STAMP)
+	@test -n "$(SUBMISSIONS)" || { echo "usage: make grade SUBMISSIONS=dir [TIMEOUT=120]" >&2; exit 2; }
+	env -u MPLBACKEND $(PY) tools/grade.py "$(SUBMISSIONS)" --timeout $(or $(TIMEOUT),120)
 
 ## Student edition: notebooks with the solutions emptied, into student/
 student: $(STAMP)

@@ -29,4 +29,9 @@ Studies and chapter helpers:
 - ``student_filter``     the student's own EKF SLAM (their exercise answers) over a recorded run
 - ``trace_readings``     a trace's readings end to end in flat arrays, by status, and their counts
 - ``tables``             aligned tables of results (headers, rows, one format per column)
+- ``inline_figures``     a notebook's figures as pixel-doubled PNGs (called on import, below)
 """
+
+from slamlib.course.inline_figures import sharp_inline_figures
+
+sharp_inline_figures()

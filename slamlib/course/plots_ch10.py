@@ -26,7 +26,7 @@ def plot_paths(ax, logs, world):
     ax.plot(pos[:, 0], pos[:, 1], "ks", ms=5, label="landmarks")
     for i, p in world.landmarks().items():
         ax.annotate(str(i), p, xytext=(3, 3), textcoords="offset points", fontsize=7)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return ax
 
 def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
@@ -68,7 +68,7 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     a0.set_ylim(-1.2, 1.2)
     a0.set_xlabel("true range (m)")
     a0.set_ylabel("range residual (m)")
-    a0.legend(fontsize=7, loc="lower left")
+    a0.legend(fontsize=8, loc="lower left")
     a0.grid(True, lw=0.4, alpha=0.5)
     lim = max(0.15, float(np.max(np.abs(res.e_bearing))) * 1.05)
     edges = np.linspace(-lim, lim, 121)
@@ -87,7 +87,7 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     a1.set_ylim(0.5, 3.0 * float(np.max(counts)))
     a1.set_xlabel("bearing residual (rad)")
     a1.set_ylabel("readings per bin")
-    a1.legend(fontsize=7)
+    a1.legend(fontsize=8)
     return axes
 
 def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
@@ -108,7 +108,7 @@ def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
         a1.plot(tr.t - tr.t[0], e, color=c, lw=1, label=name)
         a1.plot(tr.t - tr.t[0], 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), color=c, lw=0.8,
                 ls=":")
-    a0.legend(fontsize=7, loc="upper right")
+    a0.legend(fontsize=8, loc="upper right")
     a1.set_xlabel("time (s)")
     a1.set_ylabel("position error (m); dotted: 2 sigma")
     a1.legend(fontsize=8)
