@@ -14,8 +14,60 @@ from collections.abc import Mapping
 import numpy as np
 
 __all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar",
-           "read_json_file", "as_marker_ids", "as_readings", "count_readings",
+           "read_json_file", "as_marker_ids", "ID_MAX", "as_readings", "count_readings",
            "as_reading_covariances", "as_landmark_map"]
+
+
+#: Where a number is expected these are refused, not converted: ``float("0.1")`` and
+#: ``float(True)`` work, which would let a typo or a flag pass as a number.
+_NOT_NUMBERS = (bool, np.bool_, str, bytes)
+
+
+def _first_non_number(value):
+    """The first bool or string in a (nested) list or tuple, or None."""
+    stack = [value]
+    while stack:
+        v = stack.pop()
+        if isinstance(v, (list, tuple)):
+            stack.extend(reversed(v))
+        elif isinstance(v, _NOT_NUMBERS):
+            return v
+    return None
+
+
+def _describe(v) -> str:
+    if isinstance(v, (bool, np.bool_)):
+        return f"the bool {bool(v)}"
+    return f"the string {v!r}"
+
+
+def _numbers(name: str, value, what: str) -> np.ndarray:
+    """``value`` as an array of numbers (any shape), refusing bools, strings and objects
+    that are not real numbers, before any conversion."""
+    if isinstance(value, _NOT_NUMBERS):
+        raise ValueError(f"{name}: expected {what}, got {_describe(value)}")
+    if not isinstance(value, np.ndarray):
+        bad = _first_non_number(value)
+        if bad is not None:
+            raise ValueError(f"{name}: expected {what}, got {_describe(bad)} in {value!r}")
+    try:
+        arr = np.asarray(value)
+    except (TypeError, ValueError) as exc:
+        raise ValueError(f"{name}: expected {what}, got {value!r}") from exc
+    kind = arr.dtype.kind
+    if kind in "iuf":
+        return arr
+    if kind == "b":
+        raise ValueError(f"{name}: expected {what}, got booleans (dtype bool)")
+    if kind in "USa":
+        raise ValueError(f"{name}: expected {what}, got strings (dtype {arr.dtype})")
+    if kind == "O":
+        for v in arr.flat:
+            if isinstance(v, _NOT_NUMBERS) or not isinstance(v, numbers.Real):
+                raise ValueError(f"{name}: expected {what}, got {v!r} "
+                                 f"({type(v).__name__}) in it")
+        return arr
+    raise ValueError(f"{name}: expected {what}, got dtype {arr.dtype}")
 
 
 def as_vector(name: str, value, size: int | None = None) -> np.ndarray:
@@ -33,11 +85,14 @@ def as_vector(name: str, value, size: int | None = None) -> np.ndarray:
     Raises
     ------
     ValueError
-        If the shape is wrong or an entry is NaN or infinite.
+        If the shape is wrong, an entry is NaN or infinite, or is not a number (a
+        string or a bool is refused, not converted).
     """
+    if type(value) is not np.ndarray or value.dtype.kind not in "fiu":   # fast path: numbers
+        value = _numbers(name, value, "an array of numbers")
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"{name}: expected an array of numbers, got {value!r}") from exc
     if arr.ndim != 1 or (size is not None and arr.shape[0] != size):
         want = f"({size},)" if size is not None else "(n,)"
@@ -48,10 +103,13 @@ def as_vector(name: str, value, size: int | None = None) -> np.ndarray:
 
 
 def as_matrix(name: str, value, shape: tuple[int | None, int | None]) -> np.ndarray:
-    """Return ``value`` as a finite 2-D float array of the given shape (None: any)."""
+    """Return ``value`` as a finite 2-D float array of the given shape (None: any); strings
+    and bools are refused, not converted."""
+    if type(value) is not np.ndarray or value.dtype.kind not in "fiu":
+        value = _numbers(name, value, "a matrix of numbers")
     try:
         arr = np.asarray(value, dtype=float)
-    except (TypeError, ValueError) as exc:
+    except (TypeError, ValueError, OverflowError) as exc:
         raise ValueError(f"{name}: expected a matrix of numbers, got {value!r}") from exc
     ok = arr.ndim == 2 and all(w is None or w == s for w, s in zip(shape, arr.shape))
     if not ok:
@@ -111,7 +169,15 @@ def as_positive(name: str, value) -> float:
 
 
 def as_finite_scalar(name: str, value) -> float:
-    """Return ``value`` as a finite float, or raise a ValueError naming it."""
+    """Return ``value`` as a finite float, or raise a ValueError naming it.
+
+    A string (``"0.1"``), a bool or an array of more than a number is refused, not
+    converted.
+    """
+    if isinstance(value, _NOT_NUMBERS):
+        raise ValueError(f"{name}: expected a number, got {_describe(value)}")
+    if isinstance(value, np.ndarray) and (value.ndim != 0 or value.dtype.kind not in "iuf"):
+        raise ValueError(f"{name}: expected a number, got an array {value!r}")
     try:
         v = float(value)
     except (TypeError, ValueError) as exc:
@@ -157,6 +223,8 @@ def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
 
 def count_readings(z) -> int:
     """Number of rows of z (readings without ids), for :func:`as_readings`."""
+    if type(z) is not np.ndarray or z.dtype.kind not in "fiu":
+        z = _numbers("z", z, "a (k, 2) array of [range, bearing]")
     try:
         a = np.asarray(z, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -170,38 +238,97 @@ def count_readings(z) -> int:
     raise ValueError(f"z: expected shape (k, 2), got {a.shape}")
 
 
-def as_marker_ids(ids) -> np.ndarray:
-    """Marker ids as an int64 array (k,): integers, or floats with integer values.
+#: Marker ids are non-negative int64 (``report.matched`` uses -1 for "rejected").
+ID_MAX = 2**63 - 1
+#: Above this a float no longer holds every integer: 2**53 + 1 reads as 2**53.
+_FLOAT_ID_MAX = 2**53
 
-    ``None`` (readings without ids) raises, saying which filters take it.
+
+def as_marker_ids(ids) -> np.ndarray:
+    """Marker ids as an int64 array (k,): integers in 0..2**63-1, or floats with integer
+    values up to 2**53.
+
+    Refused with a ValueError naming ``ids``: ids beyond int64 (they would wrap around),
+    negative ids (``report.matched`` uses -1 for a rejected reading), floats that are not
+    integers or are beyond 2**53, bools and strings (also inside a list). ``None``
+    (readings without ids) raises, saying which filters take it.
     """
     if ids is None:
         raise ValueError("ids: None (readings without ids) needs a filter built with "
                          "association='nn' or association='jcbb'; this one has "
                          "association='ids': pass the marker ids, update(ids, z)")
+    what = "integer marker ids"
+    if isinstance(ids, _NOT_NUMBERS):
+        raise ValueError(f"ids: expected a 1-D array of {what}, got {_describe(ids)}")
+    if not isinstance(ids, np.ndarray):
+        bad = _first_non_number(ids)
+        if bad is not None:
+            raise ValueError(f"ids: expected {what}, got {_describe(bad)} in {ids!r}")
     try:
         a = np.asarray(ids)
-    except (TypeError, ValueError) as exc:  # pragma: no cover - ragged input
-        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got {ids!r}") from exc
+    except (TypeError, ValueError) as exc:  # ragged input
+        raise ValueError(f"ids: expected a 1-D array of {what}, got {ids!r}") from exc
     if a.ndim == 0:
-        raise ValueError(f"ids: expected a 1-D array of integer marker ids, got the scalar {ids!r}")
+        raise ValueError(f"ids: expected a 1-D array of {what}, got the scalar {ids!r}")
     if a.ndim != 1:
         raise ValueError(f"ids: expected shape (k,), got {a.shape}")
     if a.size == 0:
         return np.zeros(0, dtype=np.int64)
-    if a.dtype == bool or not (np.issubdtype(a.dtype, np.integer)
-                               or np.issubdtype(a.dtype, np.floating)):
-        raise ValueError(f"ids: expected integer marker ids, got dtype {a.dtype}")
-    if np.issubdtype(a.dtype, np.floating):
+    kind = a.dtype.kind
+    if kind == "O":                         # Python ints beyond uint64, or mixed objects
+        for v in a:
+            _check_id_object(v)
+        a = np.array([int(v) for v in a], dtype=np.int64)
+    elif kind == "b":
+        raise ValueError(f"ids: expected {what}, got booleans (dtype bool)")
+    elif kind == "u":
+        if int(a.max()) > ID_MAX:
+            raise ValueError(f"ids: expected marker ids in 0..2**63-1 (int64), got "
+                             f"{int(a.max())}")
+    elif kind == "i":
+        pass
+    elif kind == "f":
         if not np.all(np.isfinite(a)):
-            raise ValueError(f"ids: expected finite integer marker ids, got {a} (NaN or inf)")
+            raise ValueError(f"ids: expected finite {what}, got {a} (NaN or inf)")
         if not np.all(a == np.round(a)):
-            raise ValueError(f"ids: expected integer marker ids, got {a}")
-    return a.astype(np.int64)
+            raise ValueError(f"ids: expected {what}, got {a}")
+        big = np.abs(a) > _FLOAT_ID_MAX
+        if big.any():
+            v = float(a[big][0])
+            what_int = "int64" if abs(v) > ID_MAX else "2**53"
+            raise ValueError(f"ids: expected {what}; the float {v!r} is beyond {what_int}"
+                             + (" (they would wrap around)" if what_int == "int64" else
+                                ", where a float no longer holds every integer: pass the "
+                                "ids as integers"))
+    else:
+        raise ValueError(f"ids: expected {what}, got dtype {a.dtype}")
+    a = a.astype(np.int64)
+    if (a < 0).any():
+        raise ValueError(f"ids: expected non-negative marker ids, got {int(a[a < 0][0])} "
+                         f"(report.matched uses -1 for a rejected reading)")
+    return a
+
+
+def _check_id_object(v) -> None:
+    """One id of an object array (:func:`as_marker_ids`)."""
+    if isinstance(v, _NOT_NUMBERS):
+        raise ValueError(f"ids: expected integer marker ids, got {_describe(v)}")
+    if isinstance(v, (numbers.Integral, np.integer)):
+        if not 0 <= int(v) <= ID_MAX:
+            raise ValueError(f"ids: expected marker ids in 0..2**63-1 (int64), got {int(v)}"
+                             if int(v) > 0 else
+                             f"ids: expected non-negative marker ids, got {int(v)} "
+                             f"(report.matched uses -1 for a rejected reading)")
+        return
+    if isinstance(v, numbers.Real) and float(v).is_integer() and abs(v) <= _FLOAT_ID_MAX:
+        return
+    raise ValueError(f"ids: expected integer marker ids, got {v!r} ({type(v).__name__})")
 
 
 def as_readings(z, k: int) -> np.ndarray:
     """Readings ``[range, bearing]`` as a finite float array (k, 2) with ranges >= 0."""
+    if type(z) is not np.ndarray or z.dtype.kind not in "fiu":
+        z = _numbers("z", z, "a (k, 2) array of [range, bearing]")
     try:
         a = np.asarray(z, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -226,6 +353,8 @@ def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
     """R as (k, 2, 2): one matrix for all readings or one per reading, each checked."""
     if R is None:
         return np.broadcast_to(default, (k, 2, 2))
+    if type(R) is not np.ndarray or R.dtype.kind not in "fiu":
+        R = _numbers("R", R, f"a (2, 2) or ({k}, 2, 2) array of numbers")
     try:
         a = np.asarray(R, dtype=float)
     except (TypeError, ValueError) as exc:
@@ -265,6 +394,8 @@ def as_landmark_map(landmarks) -> dict[int, np.ndarray]:
                                                                        np.integer)):
             raise ValueError(f"landmarks: expected integer marker ids as keys, got {key!r}")
         k = int(key)
+        if not 0 <= k <= ID_MAX:
+            raise ValueError(f"landmarks: expected marker ids in 0..2**63-1 as keys, got {k}")
         if k in out:
             raise ValueError(f"landmarks: duplicate marker id {k}")
         out[k] = as_vector(f"landmarks[{k}]", pos, 2).copy()
