@@ -9,13 +9,14 @@ from __future__ import annotations
 
 import json
 import numbers
+import re
 from collections.abc import Mapping
 
 import numpy as np
 
 __all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar",
-           "read_json_file", "as_marker_ids", "ID_MAX", "as_readings", "count_readings",
-           "as_reading_covariances", "as_landmark_map"]
+           "read_text_file", "read_json_file", "as_marker_ids", "ID_MAX", "as_readings",
+           "count_readings", "as_reading_covariances", "as_landmark_map"]
 
 
 #: Where a number is expected these are refused, not converted: ``float("0.1")`` and
@@ -187,6 +188,68 @@ def as_finite_scalar(name: str, value) -> float:
     return v
 
 
+def read_text_file(path, error=ValueError) -> str:
+    """A data file's text, decoded as UTF-8; ``error`` names the file and where it is wrong.
+
+    Parameters
+    ----------
+    path : str or Path
+        The file.
+    error : ValueError subclass, or a callable making one from a message
+        What to raise (the caller's format error).
+
+    Raises
+    ------
+    error
+        For a missing file, a UTF-8 byte-order mark (the course's files have none, and
+        OpenCV and the CSV headers would stumble on it) or bytes that are not UTF-8, with
+        their line and column.
+    """
+    from pathlib import Path
+
+    p = Path(path)
+    if not p.is_file():
+        raise error(f"{p}: missing file")
+    raw = p.read_bytes()
+    if raw.startswith(b"\xef\xbb\xbf"):
+        raise error(f"{p}: line 1: starts with a UTF-8 byte-order mark (BOM); save the file "
+                    f"as UTF-8 without one")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        column = exc.start - (raw.rfind(b"\n", 0, exc.start) + 1) + 1
+        raise error(f"{p}: line {line}, column {column}: not valid UTF-8 (byte "
+                    f"0x{raw[exc.start]:02x})") from None
+
+
+def _line_of(text: str, pos: int) -> int:
+    return text.count("\n", 0, pos) + 1
+
+
+def _deepest(text: str) -> tuple[int, int]:
+    """``(line, depth)`` of the deepest ``[`` or ``{`` of a JSON text (strings skipped)."""
+    depth = best = where = 0
+    in_str = esc = False
+    for i, ch in enumerate(text):
+        if in_str:
+            if esc:
+                esc = False
+            elif ch == "\\":
+                esc = True
+            elif ch == '"':
+                in_str = False
+        elif ch == '"':
+            in_str = True
+        elif ch in "[{":
+            depth += 1
+            if depth > best:
+                best, where = depth, i
+        elif ch in "]}":
+            depth -= 1
+    return _line_of(text, where), best
+
+
 def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
     """Read a JSON data file; a malformed one raises ``error`` naming the file and line.
 
@@ -204,18 +267,36 @@ def read_json_file(path, error: type[ValueError] = ValueError, folder=None):
     -------
     (object, Path)
         The parsed JSON and the path it was read from.
+
+    Raises
+    ------
+    error
+        Besides invalid JSON: a missing or empty file, bytes that are not UTF-8
+        (:func:`read_text_file`), nesting too deep for the parser and integers
+        longer than Python converts (4300 digits), each with its line.
     """
     from pathlib import Path
 
     p = Path(path)
     if folder is not None and not p.exists() and not p.is_absolute() and len(p.parts) == 1:
         p = Path(folder) / (p.name if p.suffix else p.name + ".json")
-    if not p.is_file():
-        raise error(f"{p}: missing file")
+    text = read_text_file(p, error)
+    if not text.strip():
+        raise error(f"{p}: line 1: empty file, expected JSON")
     try:
-        return json.loads(p.read_text(encoding="utf-8")), p
+        return json.loads(text), p
     except json.JSONDecodeError as exc:
-        raise error(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from exc
+        raise error(f"{p}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except RecursionError:
+        line, depth = _deepest(text)
+        raise error(f"{p}: line {line}: JSON nested {depth} levels deep, too deep to "
+                    f"read") from None
+    except ValueError as exc:                 # an integer beyond int()'s limit of digits
+        m = re.search(r"\d{1000,}", text)
+        where = f"line {_line_of(text, m.start())}: " if m else ""
+        digits = f"an integer of {len(m.group())} digits" if m else "a number"
+        raise error(f"{p}: {where}{digits}, too long to read ({str(exc).split(':')[0]})"
+                    ) from None
 
 
 # --------------------------------------------------------------------------- the filters' inputs
