@@ -14,7 +14,7 @@ from collections.abc import Mapping
 
 import numpy as np
 
-__all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar",
+__all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar", "as_seed",
            "read_text_file", "read_json_file", "as_marker_ids", "ID_MAX", "as_readings",
            "count_readings", "as_reading_covariances", "as_landmark_map"]
 
@@ -167,6 +167,17 @@ def as_positive(name: str, value) -> float:
     if v <= 0.0:
         raise ValueError(f"{name}: expected a positive number, got {v}")
     return v
+
+
+def as_seed(name: str, value) -> int:
+    """A random seed: a non-negative integer (a float, such as 1.7, or a bool is refused:
+    ``int(1.7) == int(1.2)`` would make two runs the same)."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(value, (numbers.Integral,
+                                                                     np.integer)):
+        raise ValueError(f"{name}: expected a non-negative integer seed, got {value!r}")
+    if value < 0:
+        raise ValueError(f"{name}: expected a non-negative integer seed, got {value}")
+    return int(value)
 
 
 def as_finite_scalar(name: str, value) -> float:

@@ -41,7 +41,17 @@ __all__ = ["Marker", "World", "WorldFormatError", "load_world", "save_world", "r
 
 FORMAT = "slamlib-world/1"
 #: The project's data folder (worlds, runs, calibration).
-DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+def _data_dir() -> Path:
+    """The course's data: ``slamlib/data`` where a non-editable install ships it (the
+    package data of ``pyproject.toml``), else ``data/`` beside the package (a checkout, or
+    an editable install of one)."""
+    package = Path(__file__).resolve().parent
+    shipped = package / "data"
+    return shipped if shipped.is_dir() else package.parent / "data"
+
+
+#: Where the worlds, runs, calibration and stored studies are (see :func:`_data_dir`).
+DATA_DIR = _data_dir()
 WORLDS_DIR = DATA_DIR / "worlds"
 
 
