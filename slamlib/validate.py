@@ -42,9 +42,9 @@ def _describe(v) -> str:
     return f"the string {v!r}"
 
 
-def _numbers(name: str, value, what: str) -> np.ndarray:
-    """``value`` as an array of numbers (any shape), refusing bools, strings and objects
-    that are not real numbers, before any conversion."""
+def _array(name: str, value, what: str) -> np.ndarray:
+    """``np.asarray(value)`` unconverted, after refusing a bool or a string, alone or in a
+    (nested) list, which numpy would turn into a number (``[True, 7]`` -> ``[1, 7]``)."""
     if isinstance(value, _NOT_NUMBERS):
         raise ValueError(f"{name}: expected {what}, got {_describe(value)}")
     if not isinstance(value, np.ndarray):
@@ -52,9 +52,15 @@ def _numbers(name: str, value, what: str) -> np.ndarray:
         if bad is not None:
             raise ValueError(f"{name}: expected {what}, got {_describe(bad)} in {value!r}")
     try:
-        arr = np.asarray(value)
-    except (TypeError, ValueError) as exc:
+        return np.asarray(value)
+    except (TypeError, ValueError) as exc:       # ragged input
         raise ValueError(f"{name}: expected {what}, got {value!r}") from exc
+
+
+def _numbers(name: str, value, what: str) -> np.ndarray:
+    """``value`` as an array of numbers (any shape), refusing bools, strings and objects
+    that are not real numbers, before any conversion."""
+    arr = _array(name, value, what)
     kind = arr.dtype.kind
     if kind in "iuf":
         return arr
@@ -350,16 +356,7 @@ def as_marker_ids(ids) -> np.ndarray:
                          "association='nn' or association='jcbb'; this one has "
                          "association='ids': pass the marker ids, update(ids, z)")
     what = "integer marker ids"
-    if isinstance(ids, _NOT_NUMBERS):
-        raise ValueError(f"ids: expected a 1-D array of {what}, got {_describe(ids)}")
-    if not isinstance(ids, np.ndarray):
-        bad = _first_non_number(ids)
-        if bad is not None:
-            raise ValueError(f"ids: expected {what}, got {_describe(bad)} in {ids!r}")
-    try:
-        a = np.asarray(ids)
-    except (TypeError, ValueError) as exc:  # ragged input
-        raise ValueError(f"ids: expected a 1-D array of {what}, got {ids!r}") from exc
+    a = _array("ids", ids, f"a 1-D array of {what}")
     if a.ndim == 0:
         raise ValueError(f"ids: expected a 1-D array of {what}, got the scalar {ids!r}")
     if a.ndim != 1:
@@ -373,12 +370,8 @@ def as_marker_ids(ids) -> np.ndarray:
         a = np.array([int(v) for v in a], dtype=np.int64)
     elif kind == "b":
         raise ValueError(f"ids: expected {what}, got booleans (dtype bool)")
-    elif kind == "u":
-        if int(a.max()) > ID_MAX:
-            raise ValueError(f"ids: expected marker ids in 0..2**63-1 (int64), got "
-                             f"{int(a.max())}")
-    elif kind == "i":
-        pass
+    elif kind == "u" and int(a.max()) > ID_MAX:
+        raise ValueError(f"ids: expected marker ids in 0..2**63-1 (int64), got {int(a.max())}")
     elif kind == "f":
         if not np.all(np.isfinite(a)):
             raise ValueError(f"ids: expected finite {what}, got {a} (NaN or inf)")
@@ -387,12 +380,12 @@ def as_marker_ids(ids) -> np.ndarray:
         big = np.abs(a) > _FLOAT_ID_MAX
         if big.any():
             v = float(a[big][0])
-            what_int = "int64" if abs(v) > ID_MAX else "2**53"
-            raise ValueError(f"ids: expected {what}; the float {v!r} is beyond {what_int}"
-                             + (" (they would wrap around)" if what_int == "int64" else
-                                ", where a float no longer holds every integer: pass the "
-                                "ids as integers"))
-    else:
+            if abs(v) > ID_MAX:
+                raise ValueError(f"ids: expected marker ids in 0..2**63-1 (int64), got the "
+                                 f"float {v!r}")
+            raise ValueError(f"ids: expected {what}; the float {v!r} is beyond 2**53, where a "
+                             f"float no longer holds every integer: pass the ids as integers")
+    elif kind not in "iu":
         raise ValueError(f"ids: expected {what}, got dtype {a.dtype}")
     a = a.astype(np.int64)
     if (a < 0).any():
