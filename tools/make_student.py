@@ -37,7 +37,7 @@ from pathlib import Path
 import nbformat
 
 PLACEHOLDER = ("# Solution removed in the student edition.\n"
-               "# Your answer goes in the exercise cell above, which ends with the checker:\n"
+               "# Your answer goes in the exercise cell above, which calls the checker:\n"
                "# write it there and run that cell again; the checker tells you if it is right.")
 ANSWER_PLACEHOLDER = "*(answer removed in the student edition: try it yourself)*"
 #: Written into every edition: an existing destination holding it may be replaced.
