@@ -19,8 +19,15 @@ import pytest
 
 from slamlib import sim
 from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM, LinearisedEKFSLAM
-from slamlib.models import (inverse_observation_jacobians, inverse_observe, motion_jacobians,
-                            motion_model, observation_jacobians, observe, wrap_angle)
+from slamlib.models import (
+    inverse_observation_jacobians,
+    inverse_observe,
+    motion_jacobians,
+    motion_model,
+    observation_jacobians,
+    observe,
+    wrap_angle,
+)
 
 Q = np.diag([0.04, 0.05]) ** 2
 R = np.diag([0.03, np.radians(1.5)]) ** 2
@@ -33,16 +40,18 @@ X0 = np.array([0.02, -0.03, 0.05])                 # the estimate starts off the
 
 def _world(seed=0, steps=12):
     """True poses at t = k DT (from the true start (0, 0, 0) with slipping wheels), the
-    commanded wheel speeds and the camera frames: (step index after which it comes, ids)."""
+    commanded wheel speeds and the camera frames: step index -> the ids of each frame at that
+    time (at step 9 two frames in a row: the second one's prior is not x_{k|k-1})."""
     rng = np.random.default_rng(seed)
     u = np.array([0.30, 0.36])
     poses = [np.zeros(3)]
     for _ in range(steps):
         poses.append(motion_model(poses[-1], u + rng.normal(0.0, 0.04, 2), DT))
-    frames = {0: [1, 2, 3], 3: [1, 2], 5: [1, 3, 4], 8: [2, 3, 4, 1], 9: [4, 2], 12: [1, 2, 3, 4]}
-    readings = {k: np.array([observe(poses[k], TRUE_MAP[i]) for i in ids])
-                + rng.normal(0.0, [0.03, np.radians(1.5)], (len(ids), 2))
-                for k, ids in frames.items()}
+    frames = {0: [[1, 2, 3]], 3: [[1, 2]], 5: [[1, 3, 4]], 8: [[2, 3, 4, 1]],
+              9: [[4, 2], [1, 3]], 12: [[1, 2, 3, 4]]}
+    readings = {k: [np.array([observe(poses[k], TRUE_MAP[i]) for i in ids])
+                    + rng.normal(0.0, [0.03, np.radians(1.5)], (len(ids), 2)) for ids in frame]
+                for k, frame in frames.items()}
     return np.array(poses), u, frames, readings
 
 
@@ -166,8 +175,7 @@ def _drive(links):
     f, e, ref = _make(**links), _make(EKFSLAM), Reference(links)
     differs_at = []
     for k in range(len(POSES)):
-        if k in FRAMES:
-            ids, z = FRAMES[k], READINGS[k]
+        for ids, z in zip(FRAMES.get(k, []), READINGS.get(k, [])):
             same = np.array_equal(f.x, e.x) and np.array_equal(f.P, e.P)
             x, P = ref.update(f.x, f.P, ids, z)
             f.update(ids, z)
