@@ -12,7 +12,7 @@
   what pose NEES, before and after the loop closure; stored by
   ``make gate-study`` in ``data/studies/ch06_gate.json`` (:func:`load_gate_study`).
 - :func:`robust_summary`: a column of per-seed values as chapter 06 quotes it
-  (mean, median, bootstrap interval, the largest run and the mean without it).
+  (mean, median, BCa bootstrap interval, the largest run and the mean without it).
 - :func:`observability`: the rank of the observability matrix a filter's own
   linearisation builds (EKF SLAM against First-Estimates Jacobians).
 """
@@ -495,9 +495,11 @@ RobustSummary = SeedSpread
 
 
 def robust_summary(values, seeds, level: float = 0.95) -> SeedSpread:
-    """Mean, median and bootstrap interval (:func:`slamlib.metrics.seed_spread`, seed 0) of
-    ``values``, with the seed of the largest value and the mean without it."""
-    return seed_spread(values, seeds, level=level)
+    """Mean, median and BCa bootstrap interval (:func:`slamlib.metrics.seed_spread`, seed 0) of
+    ``values``, with the seed of the largest value and the mean without it. Where one run
+    carries the mean, even the BCa interval under-covers on the upper side
+    (:func:`slamlib.metrics.mean_interval`)."""
+    return seed_spread(values, seeds, level=level, method="BCa")
 
 
 def column_summary(summary: dict, field: str = "mean_nees") -> RobustSummary:
