@@ -42,7 +42,8 @@ from .validate import as_finite_scalar
 
 __all__ = ["pose_error", "mahalanobis2", "nees", "nis", "chi2_quantile", "chi2_band",
            "average_nees", "MeanInterval", "mean_interval", "SeedSpread", "seed_spread", "ate",
-           "ATE", "kl_gaussian", "consistent_runs", "Reference", "consistent_reference"]
+           "ATE", "kl_gaussian", "effective_instants", "consistent_runs", "Reference",
+           "consistent_reference"]
 
 
 def _as_array(name: str, value, min_ndim: int) -> np.ndarray:
@@ -406,6 +407,22 @@ def kl_gaussian(m0, C0, m1, C1) -> float:
 
 
 # ---------------------------------------------------------------- a consistent filter's runs
+def effective_instants(nees) -> float:
+    """T_eff, how many independent instants one run's time average is worth (chapter 05).
+
+    ``nees`` is (N runs, T instants). T_eff is the variance of one instant across
+    the runs, averaged over the instants, divided by the variance of the N run
+    averages. Scaling every NEES by c scales both by c^2, so T_eff describes the
+    correlation in time without assuming the consistency under test; T for
+    independent instants, 1 for a run that holds one value.
+    """
+    X = np.asarray(nees, dtype=float)
+    if X.ndim != 2 or X.shape[0] < 2 or X.shape[1] < 1 or not np.all(np.isfinite(X)):
+        raise ValueError(f"nees: expected a finite (N runs >= 2, T instants) array, got shape "
+                         f"{X.shape}")
+    return float(X.var(axis=0, ddof=1).mean() / X.mean(axis=1).var(ddof=1))
+
+
 def consistent_runs(n_runs: int, dof: int = 3, t_eff: float = 1.0, n_sets: int = 4000,
                     seed: int = 0) -> np.ndarray:
     """Simulated run averages of a consistent filter: ``n_sets`` sets of ``n_runs``, shape

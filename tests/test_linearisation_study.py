@@ -81,13 +81,21 @@ def test_rows_and_t_eff_read_the_file():
 
 
 def test_t_eff_of_independent_instants_is_their_number():
-    """Runs of T independent chi-square(3) instants: T_eff = T (closed form)."""
+    """Runs of T independent chi-square(3) instants: T_eff = T (closed form); runs that hold one
+    value: 1; from the stored moments as from the whole array."""
+    from slamlib.metrics import effective_instants
+
     rng = np.random.default_rng(0)
     X = rng.chisquare(3, (4000, 8))
     summary = {"avg": X.mean(axis=0).tolist(),
                "runs": [{"mean_nees": float(x.mean()), "mean_sq_nees": float(np.mean(x ** 2))}
                         for x in X]}
     assert ls.t_eff(summary) == pytest.approx(8.0, rel=0.05)
+    assert ls.t_eff(summary) == pytest.approx(effective_instants(X), rel=1e-9)
+    held = np.repeat(rng.chisquare(3, (500, 1)), 6, axis=1) * rng.uniform(0.5, 2.0, (500, 1))
+    assert effective_instants(held) == pytest.approx(1.0, rel=1e-9)
+    with pytest.raises(ValueError, match="nees"):
+        effective_instants(np.ones(5))
 
 
 @pytest.fixture(scope="module")

@@ -144,9 +144,9 @@ def load(path=None) -> dict:
 
 
 def t_eff(summary: dict) -> float:
-    """How many independent instants one run's time mean of the pose NEES is worth (chapter 05's
-    T_eff): the variance of one instant across the runs, averaged over the instants, divided by
-    the variance of the runs' time means. Scale-free: it does not assume consistency."""
+    """:func:`slamlib.metrics.effective_instants` (chapter 05's T_eff) of one filter of the stored
+    study, from what it keeps: the variance of one instant across the runs, averaged over the
+    instants, is ``N/(N-1)`` (mean of the runs' ``mean_sq_nees`` - time mean of ``avg^2``)."""
     runs = summary["runs"]
     n = len(runs)
     avg = np.asarray(summary["avg"], dtype=float)
