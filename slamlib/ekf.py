@@ -1384,7 +1384,8 @@ class IdealEKFSLAM(LinearisedEKFSLAM):
 
     **Huang et al.'s ideal EKF** (2008) linearises every Jacobian at the truth,
     the initialisation's included, and keeps the innovation ``z - h(x)``:
-    ``innovation="estimate", landmark_init="truth"``. The default here keeps the
+    ``innovation="estimate", landmark_init="truth"`` (up to the new landmark's mean: here the
+    first-order expansion about the truth, there ``g(x, z)``). The default here keeps the
     initialisation at the estimate, and so does ``innovation="estimate"`` alone:
     neither is Huang's filter. Chapter 06 measures each link on its own: the
     innovation at the estimate is harmless once the initialisation is at the
