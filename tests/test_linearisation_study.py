@@ -122,3 +122,9 @@ def test_observability_with_and_without_the_initialisation_link(run10):
     ideal, ideal_init = _obs(run10, "ideal"), _obs(run10, "ideal_init")
     assert ideal.rotation_init.max() > 1e-3 and ideal_init.rotation_init.max() < 1e-12
     assert ekf.rotation_init.max() > 1e-3
+
+
+def test_the_numbers_do_not_depend_on_the_number_of_workers():
+    one = ls.run_study((1044, 1071), workers=1, sigmas=(0.14,), methods=("ekf", "ekf_obs_first"))
+    two = ls.run_study((1044, 1071), workers=2, sigmas=(0.14,), methods=("ekf", "ekf_obs_first"))
+    assert one == two
