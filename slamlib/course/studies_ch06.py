@@ -401,7 +401,8 @@ def band_shares(avg, n_runs: int, *, shift: float = 0.0, dof: int = 3, prob: flo
 GATE_STUDY = {"scenario": "arena_loop", "sigmas": (0.02, 0.10, 0.14), "gate": 0.95,
               "t_end": 58.5}
 #: The filters of the gate study: ``"ideal_estimate"`` is the ideal EKF with EKF SLAM's
-#: innovation ``z - h(x)`` (``IdealEKFSLAM(..., innovation="estimate")``).
+#: innovation ``z - h(x)`` (``IdealEKFSLAM(..., innovation="estimate")``), its landmarks still
+#: initialised at the estimate: not Huang et al.'s ideal EKF (``landmark_init="truth"`` too).
 GATE_METHODS = ("slam", "fej", "ideal", "ideal_estimate")
 
 
