@@ -13,7 +13,7 @@ unexport MPLBACKEND
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
         student runs lab bench clean studies evidence association-study graph-study \
-        graph-mrclam gate-study pdf grade
+        graph-mrclam gate-study linearisation-study pdf grade
 
 venv: $(STAMP)
 
@@ -88,6 +88,11 @@ studies: $(SETUP)
 ## Chapter 06's study of every gated reading into data/studies/ch06_gate.json (bit for bit)
 gate-study: $(SETUP)
 	$(PY) tools/make_gate_study.py --workers 2
+
+## Chapter 06's one-factor ablation of EKF SLAM's linearisation points into
+## data/studies/ch06_linearisation.json (100 seeds, 2 slips, 13 filters; bit for bit; ~25 min)
+linearisation-study: $(SETUP)
+	$(PY) tools/make_linearisation_study.py --workers 2
 
 ## Chapter 09's Monte-Carlo of ids / NN / JCBB (100 seeds) into data/studies (bit for bit); also the
 ## drifted loops (association_drift.json) and the dense worlds (association_dense.json)

@@ -150,8 +150,8 @@ from .validate import (
     count_readings,
 )
 
-__all__ = ["EKFLocalization", "EKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM", "UpdateReport",
-           "gate_threshold", "predict_readings"]
+__all__ = ["EKFLocalization", "EKFSLAM", "LinearisedEKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM",
+           "UpdateReport", "gate_threshold", "predict_readings"]
 
 #: The statuses a reading can get from :meth:`EKFSLAM.update`.
 STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
@@ -1149,38 +1149,86 @@ class EKFSLAM(_EKFBase):
 
 
 # --------------------------------------------------------------------------- linearisation points
-class FEJEKFSLAM(EKFSLAM):
-    """EKF SLAM with First-Estimates Jacobians (Huang, Mourikis & Roumeliotis 2008/2010; ch. 06).
+#: Where each link of EKF SLAM's chain may be linearised (chapter 06): option -> allowed points.
+LINKS = {"motion": ("estimate", "first", "truth"), "observation": ("estimate", "first", "truth"),
+         "initialisation": ("estimate", "truth"), "innovation": ("estimate", "truth")}
 
-    The same constructor, :meth:`update` and report as :class:`EKFSLAM`; the
-    means move exactly as in EKF SLAM (``f`` and ``h`` at the current
-    estimate). Only the points at which the Jacobians are evaluated change, so
-    that the Jacobians of successive steps *chain* like the true system's:
 
-    - **motion**: ``A_k`` is built from the difference of the two latest
-      *propagated* poses instead of the updated one,
-      ``A_k = [[1, 0, -(y_{k+1|k} - y_{k|k-1})], [0, 1, x_{k+1|k} - x_{k|k-1}], [0, 0, 1]]``
-      (EKF SLAM uses ``x_{k+1|k} - x_{k|k}``; the two differ only after an
-      update). Matrices of this form multiply by adding their corner terms, so
-      the product of ``A`` over any interval is the ``A`` of the whole interval
-      ``x_{end|end-1} - x_{start|start-1}``, whatever the updates in between;
-    - **observation**: each landmark's Jacobians are evaluated at its *first*
-      estimate (where it was put when it was mapped) and at the propagated pose
-      ``x_{k|k-1}``, through the same :meth:`reading_model` hook.
+class LinearisedEKFSLAM(EKFSLAM):
+    """EKF SLAM with each link of its chain linearised at a point of your choice (ch. 06).
 
-    With these, the linearised system has the true system's unobservable
-    directions (a translation of everything in x or y and a rotation about the
-    origin), so the filter no longer gains information about them from its
-    own linearisation errors: chapter 06 derives it and measures it.
-    ``W`` (the noise Jacobian) stays at the current estimate; it does not
-    enter the observability argument.
+    EKF SLAM linearises four links, all at the current estimate. Each can be
+    moved on its own, so that a chapter can change one thing and measure what
+    it does (a one-factor ablation); the means always move with ``f`` and with
+    the inverse observation ``g`` at the estimate, as in EKF SLAM.
+
+    - **motion** ``A_k`` (and ``W_k``). ``"estimate"``: ``A`` from ``f(x_k|k) - x_k|k``, ``W``
+      at ``x_k|k``; ``"first"``: ``A`` from the propagated poses ``x_k+1|k - x_k|k-1``, ``W`` at
+      ``x_k|k``; ``"truth"``: ``A`` from the true poses ``p_k+1 - p_k``, ``W`` at the true heading.
+    - **observation** ``H`` of a mapped landmark. ``"estimate"``: at the prior pose and the
+      landmark's current estimate; ``"first"``: at ``x_k|k-1`` and the landmark's FIRST
+      estimate (where it was put when mapped); ``"truth"``: at the true pose and landmark.
+    - **initialisation** ``J1, J2`` of a new landmark. ``"estimate"``: at the updated pose and
+      the reading, mean ``g(x, z)``; ``"truth"``: at the true pose and the true reading
+      ``z_t = h(p_t, m_t)``, mean ``m_t + J1 (x - p_t) + J2 (z - z_t)``.
+    - **innovation**, the predicted reading. ``"estimate"``: ``z - h(x)``; ``"truth"``:
+      ``z - [h(p_t, m_t) + H_t (x - p_t) + H_t,m (m - m_t)]``, first order about the truth.
+
+    The all-``"estimate"`` filter is :class:`EKFSLAM`, bit for bit;
+    :class:`FEJEKFSLAM` is ``motion="first", observation="first"`` and
+    :class:`IdealEKFSLAM` ``motion="truth", observation="truth"``. The
+    ``"first"`` motion Jacobians chain: matrices of the form
+    ``[[1, 0, a], [0, 1, b], [0, 0, 1]]`` multiply by adding their corners, so
+    the product of FEJ's ``A`` over any interval is the ``A`` of the whole
+    interval ``x_end|end-1 - x_start|start-1``, whatever the updates between.
+
+    Parameters
+    ----------
+    x0, P0, Q, R, wheel_base, gate, capacity, association
+        As for :class:`EKFSLAM`.
+    motion, observation : {"estimate", "first", "truth"}
+    initialisation, innovation : {"estimate", "truth"}
+        The linearisation point of each link (table above).
+    truth : callable ``t -> (3,)``, optional
+        The true pose at time ``t`` (s), e.g. :func:`slamlib.runner.truth_function`;
+        needed by any ``"truth"`` choice.
+    landmarks : dict {int: (2,)}, optional
+        The true map; needed by any ``"truth"`` choice. A reading or landmark
+        whose id is not in it (a misread) is linearised at the estimate.
+    t0 : float
+        The time of ``x0``; each :meth:`predict` adds its ``dt`` (attribute ``t``).
     """
 
-    def __init__(self, *args, **kwargs):
-        # exactly EKFSLAM's constructor (whatever options it has)
-        super().__init__(*args, **kwargs)
+    def __init__(self, x0, P0, Q, R, *, motion: str = "estimate", observation: str = "estimate",
+                 initialisation: str = "estimate", innovation: str = "estimate", truth=None,
+                 landmarks=None, t0: float = 0.0, **kwargs):
+        links = {"motion": motion, "observation": observation, "initialisation": initialisation,
+                 "innovation": innovation}
+        for name, value in links.items():
+            if not isinstance(value, str) or value not in LINKS[name]:
+                raise ValueError(f"{name}: expected one of {LINKS[name]}, got {value!r}")
+        needs = [name for name, value in links.items() if value == "truth"]
+        if needs and (not callable(truth) or landmarks is None):
+            raise ValueError(f"truth, landmarks: {', '.join(needs)}='truth' needs truth (a "
+                             f"callable t -> true pose (3,)) and landmarks (the true map "
+                             f"{{id: (2,)}}), got truth={truth!r}, landmarks={landmarks!r}")
+        t = as_finite_scalar("t0", t0)
+        true_map = {} if landmarks is None else as_landmark_map(landmarks)
+        super().__init__(x0, P0, Q, R, **kwargs)        # EKFSLAM's constructor
+        self._links = links
+        self._truth = truth
+        self._true_map = true_map
+        self.t = t
         self._propagated = self._x[:3].copy()     # x_{k|k-1}: the pose the last predict made
         self._first: dict[int, np.ndarray] = {}   # state slot -> first estimate of the landmark
+
+    motion = property(lambda self: self._links["motion"], doc="Where ``A`` is linearised.")
+    observation = property(lambda self: self._links["observation"],
+                           doc="Where a mapped landmark's ``H`` is linearised.")
+    initialisation = property(lambda self: self._links["initialisation"],
+                              doc="Where a new landmark's ``J1, J2`` are linearised.")
+    innovation = property(lambda self: self._links["innovation"],
+                          doc="How the predicted reading of the innovation is formed.")
 
     @property
     def propagated_pose(self) -> np.ndarray:
@@ -1188,107 +1236,51 @@ class FEJEKFSLAM(EKFSLAM):
         return self._propagated.copy()
 
     def first_estimate(self, marker_id: int) -> np.ndarray:
-        """Where the landmark was put when it was mapped (its Jacobians' linearisation point)."""
+        """Where the landmark was put when it was mapped (FEJ's linearisation point)."""
         return self._first[self.landmark_index(marker_id)].copy()
 
+    def _true_pose(self, t: float) -> np.ndarray:
+        return as_vector("truth(t)", self._truth(t), 3)
+
+    # ------------------------------------------------------------------ motion
+    def _fast_predict(self) -> bool:
+        return (self.motion == "estimate"
+                and getattr(self.motion_step, "__func__", None) is LinearisedEKFSLAM.motion_step
+                and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov)
+
     def motion_step(self, pose, u, dt):
-        """``f`` at the estimate; ``A`` from ``f(pose, u) - x_{k|k-1}`` (the chained Jacobian)."""
+        """``f`` at the estimate; ``A`` (and ``W``) at the point of :attr:`motion`."""
         new, A, W = super().motion_step(pose, u, dt)
-        A[0, 2] = -(new[1] - self._propagated[1])
-        A[1, 2] = new[0] - self._propagated[0]
+        if self.motion == "first":        # A from f(pose, u) - x_{k|k-1}: the chained Jacobian
+            A[0, 2] = -(new[1] - self._propagated[1])
+            A[1, 2] = new[0] - self._propagated[0]
+        elif self.motion == "truth":      # A from the true poses, W at the true heading
+            p0, p1 = self._true_pose(self.t), self._true_pose(self.t + dt)
+            _, _, W = super().motion_step(p0, u, dt)
+            A = np.array([[1.0, 0.0, -(p1[1] - p0[1])],
+                          [0.0, 1.0, p1[0] - p0[0]],
+                          [0.0, 0.0, 1.0]])
         return new, A, W
 
     def _predict(self, u, dt) -> None:
         super()._predict(u, dt)
         self._propagated = self._x[:3].copy()
+        self.t += dt
 
-    def _add_landmark(self, marker_id, z, R) -> None:
-        super()._add_landmark(marker_id, z, R)
-        s = self._slot[marker_id]
-        self._first[s] = self._x[s:s + 2].copy()
+    def _predict_block(self, u, dt):
+        if not self._fast_predict():
+            return super()._predict_block(u, dt)         # step by step, through _predict
+        out = super()._predict_block(u, dt)
+        self._propagated = self._x[:3].copy()
+        for d in dt.tolist():
+            self.t += d
+        return out
 
-    def _linearisation_jacobians(self, slots, Hp, Hl):
-        """The readings' Jacobians at ``x_{k|k-1}`` and each landmark's first estimate."""
-        first = np.array([self._first[int(s)] for s in slots]).reshape(-1, 2)
-        _, Hp2, Hl2 = self.reading_model(self._propagated.copy(), first)
-        ok = np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
-        return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
-
-    def _innovation_covs(self, slots, Hp, Hl, R):
-        return super()._innovation_covs(slots, *self._linearisation_jacobians(slots, Hp, Hl), R)
-
-    def _fuse(self, slots, Hp, Hl, y, R):
-        return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
-
-
-class IdealEKFSLAM(EKFSLAM):
-    """EKF SLAM linearised about the TRUE state: a diagnostic only a simulation can run (ch. 06).
-
-    It is given the true trajectory and the true map. The means move with
-    ``f`` at the estimate, as in EKF SLAM; what the filter linearises is
-    linearised at the truth instead of at the estimate (a new landmark's
-    initialisation only with ``landmark_init="truth"``):
-
-    - the motion Jacobian from the true poses, ``A_k = [[1, 0, -(y_{k+1} -
-      y_k)], [0, 1, x_{k+1} - x_k], [0, 0, 1]]`` (so that the Jacobians chain
-      exactly), ``W`` at the true heading;
-    - each reading's Jacobians ``H_t`` at the true pose and the true landmark;
-    - with ``landmark_init="truth"``, a new landmark's initialisation too:
-      ``J1``, ``J2`` at the true pose and the true reading ``z_t = h(x_t, m_t)``
-      and the mean by the first-order expansion ``m_t + J1 (x - x_t) + J2 (z -
-      z_t)``. By default (``"estimate"``) a new landmark is placed and its
-      covariance built at the *estimated* pose, as in EKF SLAM: the one step of
-      this filter that is not linearised at the truth;
-    - with ``innovation="truth"`` (default) also the predicted reading, by its
-      first-order expansion about the truth, ``h(x_t) + H_t (x - x_t)``, so that
-      ``y = z - h(x_t) - H_t (x - x_t)`` is exactly what a Kalman filter of the
-      system linearised about the true trajectory sees. With
-      ``innovation="estimate"`` the innovation is EKF SLAM's ``z - h(x)`` and
-      only the Jacobians move to the truth: chapter 06 measures that this
-      mixture is *worse* than EKF SLAM once the heading error is a few
-      degrees (the estimate's frame is rotated from the truth's, and ``H_t``
-      maps the innovation into the wrong directions).
-
-    The inconsistency left in this filter is what the EKF's approximations
-    cost apart from the choice of linearisation point (Huang et al. 2008);
-    the difference to EKF SLAM is what linearising at the estimate costs.
-
-    Parameters
-    ----------
-    x0, P0, Q, R, wheel_base, gate, capacity
-        As for :class:`EKFSLAM`.
-    truth : callable ``t -> (3,)``
-        The true pose at time ``t`` (s), e.g. :func:`slamlib.runner.truth_function`.
-    landmarks : dict {int: (2,)}
-        The true map. A reading of an id that is not in it (a misread) is
-        linearised at the estimate, as in EKF SLAM.
-    t0 : float
-        The time of ``x0``; each :meth:`predict` adds its ``dt``.
-    innovation : {"truth", "estimate"}
-        How the predicted reading is formed (see above).
-    landmark_init : {"estimate", "truth"}
-        Where a new landmark's initialisation is linearised (see above).
-    """
-
-    def __init__(self, *args, truth, landmarks, t0: float = 0.0, innovation: str = "truth",
-                 landmark_init: str = "estimate", **kwargs):
-        if not callable(truth):
-            raise ValueError(f"truth: expected a callable t -> true pose (3,), got {truth!r}")
-        super().__init__(*args, **kwargs)               # EKFSLAM's constructor
-        self._truth = truth
-        self._true_map = as_landmark_map(landmarks)
-        self.t = as_finite_scalar("t0", t0)
-        if innovation not in ("truth", "estimate"):
-            raise ValueError(f"innovation: expected 'truth' or 'estimate', got {innovation!r}")
-        self.innovation = innovation
-        if landmark_init not in ("truth", "estimate"):
-            raise ValueError(f"landmark_init: expected 'truth' or 'estimate', got "
-                             f"{landmark_init!r}")
-        self.landmark_init = landmark_init
-
+    # ------------------------------------------------------------------ initialisation
     def _initial_landmark(self, marker_id, z):
-        """With ``landmark_init="truth"``: the initialisation linearised about the truth."""
-        if self.landmark_init != "truth" or marker_id not in self._true_map:
+        """With ``initialisation="truth"``: ``J1, J2`` at the true pose and the true reading,
+        the mean by the first-order expansion ``m_t + J1 (x - p_t) + J2 (z - z_t)``."""
+        if self.initialisation != "truth" or marker_id not in self._true_map:
             return super()._initial_landmark(marker_id, z)
         pt, mt = self._true_pose(self.t), self._true_map[marker_id]
         zt = observe_landmarks(pt, mt[None, :])[0][0]
@@ -1299,29 +1291,27 @@ class IdealEKFSLAM(EKFSLAM):
         dz[1] = wrap_angle(dz[1])
         return mt + J1 @ dp + J2 @ dz, J1, J2
 
-    def _true_pose(self, t: float) -> np.ndarray:
-        return as_vector("truth(t)", self._truth(t), 3)
+    def _add_landmark(self, marker_id, z, R) -> None:
+        super()._add_landmark(marker_id, z, R)
+        s = self._slot[marker_id]
+        self._first[s] = self._x[s:s + 2].copy()
 
-    def motion_step(self, pose, u, dt):
-        """``f`` at the estimate; ``A`` from the true poses, ``W`` at the true heading."""
-        new, _, _ = super().motion_step(pose, u, dt)
-        p0, p1 = self._true_pose(self.t), self._true_pose(self.t + dt)
-        _, _, W = super().motion_step(p0, u, dt)
-        A = np.array([[1.0, 0.0, -(p1[1] - p0[1])],
-                      [0.0, 1.0, p1[0] - p0[0]],
-                      [0.0, 0.0, 1.0]])
-        return new, A, W
-
-    def _predict(self, u, dt) -> None:
-        super()._predict(u, dt)
-        self.t += dt
-
+    # ------------------------------------------------------------------ observation
     def _linearisation_jacobians(self, slots, Hp, Hl):
-        """The readings' Jacobians at the true pose and the true landmarks."""
-        ids = [self._ids[(int(s) - 3) // 2] for s in slots]
-        known = np.array([i in self._true_map for i in ids])
-        L = np.array([self._true_map.get(i, np.zeros(2)) for i in ids]).reshape(-1, 2)
-        _, Hp2, Hl2 = self.reading_model(self._true_pose(self.t), L)
+        """The readings' Jacobians at the point of :attr:`observation` (``Hp, Hl``: at the
+        estimate, kept where that point is degenerate or the id not in the true map)."""
+        if self.observation == "estimate":
+            return Hp, Hl
+        if self.observation == "first":     # at x_{k|k-1} and each landmark's first estimate
+            known = np.ones(len(slots), dtype=bool)
+            pose = self._propagated.copy()
+            L = np.array([self._first[int(s)] for s in slots]).reshape(-1, 2)
+        else:                               # at the true pose and the true landmarks
+            ids = [self._ids[(int(s) - 3) // 2] for s in slots]
+            known = np.array([i in self._true_map for i in ids], dtype=bool)
+            pose = self._true_pose(self.t)
+            L = np.array([self._true_map.get(i, np.zeros(2)) for i in ids]).reshape(-1, 2)
+        _, Hp2, Hl2 = self.reading_model(pose, L)
         ok = known & np.all(np.isfinite(Hp2), axis=(1, 2)) & np.all(np.isfinite(Hl2), axis=(1, 2))
         return np.where(ok[:, None, None], Hp2, Hp), np.where(ok[:, None, None], Hl2, Hl)
 
@@ -1331,9 +1321,11 @@ class IdealEKFSLAM(EKFSLAM):
     def _fuse(self, slots, Hp, Hl, y, R):
         return super()._fuse(slots, *self._linearisation_jacobians(slots, Hp, Hl), y, R)
 
+    # ------------------------------------------------------------------ innovation
     def reading_model(self, pose, positions):
-        """``h`` linearised about the truth: ``h(x_t) + H_t (x - x_t)`` (an ideal filter's
-        prediction of a reading), with the Jacobians ``H_t`` at the truth."""
+        """With ``innovation="truth"``: ``h`` linearised about the truth,
+        ``h(p_t, m_t) + H_t (x - p_t) + H_t,m (m - m_t)`` (an ideal filter's prediction of a
+        reading); the Jacobians returned are at the estimate (see :attr:`observation`)."""
         h, Hp, Hl = super().reading_model(pose, positions)
         if self.innovation != "truth" or positions.shape[0] == 0:
             return h, Hp, Hl
@@ -1351,3 +1343,79 @@ class IdealEKFSLAM(EKFSLAM):
             lin = ht[0] + Hpt[0] @ dp + Hlt[0] @ (p - lt)
             h[i] = [lin[0], wrap_angle(lin[1])]
         return h, Hp, Hl
+
+
+class FEJEKFSLAM(LinearisedEKFSLAM):
+    """EKF SLAM with First-Estimates Jacobians (Huang, Mourikis & Roumeliotis 2008/2010; ch. 06):
+    ``LinearisedEKFSLAM(motion="first", observation="first")``, the same numbers.
+
+    The same constructor, :meth:`update` and report as :class:`EKFSLAM`; the
+    means move exactly as in EKF SLAM. ``A_k`` is built from the two latest
+    *propagated* poses, ``x_{k+1|k} - x_{k|k-1}`` (EKF SLAM: ``x_{k+1|k} -
+    x_{k|k}``), so the motion Jacobians chain through the updates, and each
+    reading's Jacobians are evaluated at ``x_{k|k-1}`` and at its landmark's
+    *first* estimate. With these the linearised system keeps the true system's
+    unobservable directions (a translation in x and y, a rotation about the
+    origin): chapter 06 derives it and measures it. A new landmark is
+    initialised at the estimate, as in EKF SLAM; ``W`` stays at the estimate.
+    """
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, motion="first", observation="first", **kwargs)
+
+
+class IdealEKFSLAM(LinearisedEKFSLAM):
+    """EKF SLAM linearised about the TRUE state: a diagnostic only a simulation can run (ch. 06).
+
+    ``LinearisedEKFSLAM(motion="truth", observation="truth",
+    initialisation=landmark_init, innovation=innovation)``, the same numbers.
+    It is given the true trajectory and the true map; the means move with
+    ``f`` and ``g`` at the estimate, as in EKF SLAM.
+
+    - ``A_k`` from the true poses (so that the Jacobians chain exactly), ``W`` at
+      the true heading; each reading's ``H_t`` at the true pose and landmark;
+    - ``innovation="truth"`` (default): the predicted reading is the first-order
+      expansion about the truth, ``y = z - h(x_t) - H_t (x - x_t)``: what a Kalman
+      filter of the system linearised about the true trajectory sees.
+      ``"estimate"``: EKF SLAM's ``z - h(x)``;
+    - ``landmark_init="estimate"`` (default): a new landmark is placed and its
+      covariance built with ``J1, J2`` at the *estimated* pose, as in EKF SLAM;
+      ``"truth"``: at the true pose and reading.
+
+    **Huang et al.'s ideal EKF** (2008) linearises every Jacobian at the truth,
+    the initialisation's included, and keeps the innovation ``z - h(x)``:
+    ``innovation="estimate", landmark_init="truth"`` (up to the new landmark's mean: here the
+    first-order expansion about the truth, there ``g(x, z)``). The default here keeps the
+    initialisation at the estimate, and so does ``innovation="estimate"`` alone:
+    neither is Huang's filter. Chapter 06 measures each link on its own: the
+    innovation at the estimate is harmless once the initialisation is at the
+    truth; the initialisation's Jacobians at the estimate are what breaks the
+    chain.
+
+    Parameters
+    ----------
+    x0, P0, Q, R, wheel_base, gate, capacity, association
+        As for :class:`EKFSLAM`.
+    truth : callable ``t -> (3,)``
+        The true pose at time ``t`` (s), e.g. :func:`slamlib.runner.truth_function`.
+    landmarks : dict {int: (2,)}
+        The true map. A reading of an id that is not in it (a misread) is
+        linearised at the estimate, as in EKF SLAM.
+    t0 : float
+        The time of ``x0``; each :meth:`predict` adds its ``dt``.
+    innovation : {"truth", "estimate"}
+    landmark_init : {"estimate", "truth"}
+    """
+
+    def __init__(self, *args, truth, landmarks, t0: float = 0.0, innovation: str = "truth",
+                 landmark_init: str = "estimate", **kwargs):
+        if landmark_init not in LINKS["initialisation"]:
+            raise ValueError(f"landmark_init: expected one of {LINKS['initialisation']}, got "
+                             f"{landmark_init!r}")
+        super().__init__(*args, motion="truth", observation="truth", initialisation=landmark_init,
+                         innovation=innovation, truth=truth, landmarks=landmarks, t0=t0, **kwargs)
+
+    @property
+    def landmark_init(self) -> str:
+        """Where a new landmark's initialisation is linearised (:attr:`initialisation`)."""
+        return self.initialisation
