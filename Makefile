@@ -13,7 +13,7 @@ unexport MPLBACKEND
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
         student runs lab bench clean studies evidence association-study graph-study \
-        graph-mrclam gate-study linearisation-study pdf grade
+        graph-mrclam gate-study linearisation-study pdf grade mrclam-heldout
 
 venv: $(STAMP)
 
@@ -129,3 +129,10 @@ graph-study: $(SETUP)
 ## Chapter 11's EKF / iSAM2 / batch on the five MRCLAM robots into data/studies (bit for bit)
 graph-mrclam: $(SETUP)
 	$(PY) -m slamlib.course.graph_mrclam
+
+## Chapter 10's held-out test of the noise identification into data/studies/mrclam_heldout.json
+## (bit for bit; about 20 min on one core). Needs a full download of MRCLAM Dataset 6:
+##   make mrclam-heldout MRCLAM=/path/to/MRCLAM_Dataset6
+mrclam-heldout: $(SETUP)
+	@test -n "$(MRCLAM)" || { echo "MRCLAM=/path/to/MRCLAM_Dataset6 (the full download) is needed"; exit 2; }
+	$(PY) -m slamlib.course.mrclam_heldout "$(MRCLAM)"

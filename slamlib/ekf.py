@@ -387,30 +387,38 @@ class _EKFBase:
         return self._x.shape[0]
 
     # ------------------------------------------------------------------ predict
-    def predict(self, u, dt: float) -> None:
+    def predict(self, u, dt: float, Q=None) -> None:
         """Prediction with the wheel speeds ``u = [V_R, V_L]`` over ``dt`` (chapter 01).
 
         ``x_B <- f(x_B, u)``, ``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``;
-        the landmarks do not move.
+        the landmarks do not move. ``Q``: this step's 2x2 covariance of ``u``
+        (default the filter's own ``Q``; a real log's density gives each step
+        its own, ``Q_c / dt``, chapter 10).
         """
         # u and dt are checked (ValueError naming them) once, before anything changes
         if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
                 and type(dt) is float and dt >= 0.0 and math.isfinite(dt)
                 and math.isfinite(u[0]) and math.isfinite(u[1])):
             _, u, dt, _ = _check_motion_args(self._x[:3], u, dt, self.wheel_base)
-        self._predict(u, dt)
+        if Q is not None:
+            Q = as_covariance("Q", Q, 2)
+        self._predict(u, dt, Q)
 
-    def _predict(self, u: np.ndarray, dt: float) -> None:
-        """:meth:`predict` on checked ``u`` (float array (2,)) and ``dt`` (the runners' loop)."""
+    def _predict(self, u: np.ndarray, dt: float, Q: np.ndarray | None = None) -> None:
+        """:meth:`predict` on checked ``u`` (float array (2,)), ``dt`` and ``Q`` (None: the
+        filter's own; the runners' loop)."""
         if self._fast_predict():
             # The course's motion model, unchanged hooks: f, A, W as scalars (no 3x3 arrays),
             # compiled (slamlib.kernels.predict_pose, from models.motion_terms, chapter 01).
-            a, b = _kernels.predict_pose(self._x, self._Pbuf, self.Q, float(u[0]), float(u[1]),
-                                         dt, self.wheel_base)
+            a, b = _kernels.predict_pose(self._x, self._Pbuf, self.Q if Q is None else Q,
+                                         float(u[0]), float(u[1]), dt, self.wheel_base)
             self._add_shear(a, b)
             return
         new_pose, A, W = self.motion_step(self._x[:3], u, dt)
-        self._predict_cov(A, W)
+        if Q is None:
+            self._predict_cov(A, W)
+        else:
+            self._predict_cov(A, W, Q)
         self._x[:3] = new_pose
 
     def _fast_predict(self) -> bool:
@@ -419,10 +427,11 @@ class _EKFBase:
         return (getattr(self.motion_step, "__func__", None) is _EKFBase.motion_step
                 and getattr(self._predict_cov, "__func__", None) is _EKFBase._predict_cov)
 
-    def _predict_block(self, u: np.ndarray, dt: np.ndarray
+    def _predict_block(self, u: np.ndarray, dt: np.ndarray, Q: np.ndarray | None = None
                        ) -> tuple[np.ndarray, np.ndarray]:
-        """:meth:`predict` with each row of ``u`` (k, 2) and ``dt`` (k,), checked, in order;
-        returns the pose (k, 3) and ``P_rr`` (k, 3, 3) after each step (what a trace records).
+        """:meth:`predict` with each row of ``u`` (k, 2), ``dt`` (k,) and ``Q`` (k, 2, 2; None:
+        the filter's own for every step), checked, in order; returns the pose (k, 3) and
+        ``P_rr`` (k, 3, 3) after each step (what a trace records).
 
         The same arithmetic as k calls of :meth:`predict`, bit for bit
         (:func:`slamlib.kernels.predict_poses`), in one call; only for the
@@ -432,13 +441,14 @@ class _EKFBase:
         poses, covs = np.empty((k, 3)), np.empty((k, 3, 3))
         if not self._fast_predict():
             for i in range(k):
-                self._predict(u[i], float(dt[i]))
+                self._predict(u[i], float(dt[i]), None if Q is None else Q[i])
                 poses[i], covs[i] = self._x[:3], self._Pbuf[:3, :3]
             return poses, covs
         has = self._shear is not None
         sa, sb = self._shear if has else (0.0, 0.0)
+        Qk = np.broadcast_to(self.Q, (k, 2, 2)) if Q is None else Q
         has, sa, sb = _kernels.predict_poses(
-            self._x, self._Pbuf, self.Q, np.ascontiguousarray(u, dtype=float),
+            self._x, self._Pbuf, Qk, np.ascontiguousarray(u, dtype=float),
             np.ascontiguousarray(dt, dtype=float), self.wheel_base, has, sa, sb, poses, covs)
         if has and self._n > 3:
             self._shear = (sa, sb)
@@ -811,27 +821,28 @@ class _EKFBase:
         self._x, self._P = x, P
 
     # ------------------------------------------------------------------ the structured algebra
-    def _predict_cov(self, A: np.ndarray, W: np.ndarray) -> None:
+    def _predict_cov(self, A: np.ndarray, W: np.ndarray, Q: np.ndarray | None = None) -> None:
         """``P_rr <- A P_rr A^T + W Q W^T``, ``P_rm <- A P_rm``, ``P_mr = P_rm^T``: O(n).
 
-        The motion Jacobians of the course's filters are all *shears*,
-        ``A = I + c e_3^T`` with ``c = [a, b, 0]`` (only ``A[0, 2]`` and
-        ``A[1, 2]`` differ from the identity): those go to
+        ``Q`` this step's (None: the filter's own). The motion Jacobians of the
+        course's filters are all *shears*, ``A = I + c e_3^T`` with ``c = [a, b, 0]``
+        (only ``A[0, 2]`` and ``A[1, 2]`` differ from the identity): those go to
         :meth:`_predict_shear`; any other A is applied as it is.
         """
+        Q = self.Q if Q is None else Q
         a = A.tolist()
         if (a[0][0] == 1.0 and a[0][1] == 0.0 and a[1][0] == 0.0 and a[1][1] == 1.0
                 and a[2] == [0.0, 0.0, 1.0]):
-            self._predict_shear(a[0][2], a[1][2], tuple(np.ravel(W).tolist()))
+            self._predict_shear(a[0][2], a[1][2], tuple(np.ravel(W).tolist()), Q)
             return
         P, n = self._P, self._n
-        Prr = A @ P[:3, :3] @ A.T + W @ self.Q @ W.T
+        Prr = A @ P[:3, :3] @ A.T + W @ Q @ W.T
         P[:3, :3] = 0.5 * (Prr + Prr.T)
         if n > 3:
             P[:3, 3:n] = A @ P[:3, 3:n]
             P[3:n, :3] = P[:3, 3:n].T
 
-    def _predict_shear(self, a: float, b: float, W: tuple) -> None:
+    def _predict_shear(self, a: float, b: float, W: tuple, Q: np.ndarray | None = None) -> None:
         """The prediction's covariance for ``A = I + c e_3^T``, ``c = [a, b, 0]`` (chapter 01).
 
         ``P_rr <- A P_rr A^T + W Q W^T`` element by element, exactly symmetric
@@ -843,9 +854,10 @@ class _EKFBase:
         ``c`` (``(I + c e_3^T)(I + c' e_3^T) = I + (c + c') e_3^T`` because
         ``e_3^T c' = 0``), so the predictions between two camera frames are one
         shear of ``P_rm``, applied (O(n)) when anything next reads ``P``
-        (:attr:`_P`). ``W`` is the 3x2 noise Jacobian as 6 floats, row by row.
+        (:attr:`_P`). ``W`` is the 3x2 noise Jacobian as 6 floats, row by row; ``Q``
+        this step's (None: the filter's own).
         """
-        _kernels.shear_cov(self._Pbuf, self.Q, a, b, *W)
+        _kernels.shear_cov(self._Pbuf, self.Q if Q is None else Q, a, b, *W)
         self._add_shear(a, b)
 
     def _add_shear(self, a: float, b: float) -> None:
@@ -1262,15 +1274,15 @@ class LinearisedEKFSLAM(EKFSLAM):
                           [0.0, 0.0, 1.0]])
         return new, A, W
 
-    def _predict(self, u, dt) -> None:
-        super()._predict(u, dt)
+    def _predict(self, u, dt, Q=None) -> None:
+        super()._predict(u, dt, Q)
         self._propagated = self._x[:3].copy()
         self.t += dt
 
-    def _predict_block(self, u, dt):
+    def _predict_block(self, u, dt, Q=None):
         if not self._fast_predict():
-            return super()._predict_block(u, dt)         # step by step, through _predict
-        out = super()._predict_block(u, dt)
+            return super()._predict_block(u, dt, Q)      # step by step, through _predict
+        out = super()._predict_block(u, dt, Q)
         self._propagated = self._x[:3].copy()
         for d in dt.tolist():
             self.t += d

@@ -64,14 +64,15 @@ class _DenseAlgebra:
         """The stacked observation Jacobian H, shape (2m, n), zeros outside the blocks."""
         return stacked_jacobian(self._n, slots, Hp, Hl)
 
-    def _predict_cov(self, A, W) -> None:
+    def _predict_cov(self, A, W, Q=None) -> None:
         n = self._n
         F = np.eye(n)
         F[:3, :3] = A
         Fw = np.zeros((n, 2))
         Fw[:3, :] = W
         P = self._P[:n, :n]
-        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fw @ self.Q @ Fw.T)
+        Q = self.Q if Q is None else Q
+        self._P[:n, :n] = _symmetrise(F @ P @ F.T + Fw @ Q @ Fw.T)
 
     def _innovation_covs(self, slots, Hp, Hl, R) -> np.ndarray:
         n = self._n

@@ -127,7 +127,11 @@ def apply_shear(P, n: int, a: float, b: float) -> None:
 @njit(cache=True)
 def predict_poses(x, P, Q, u, dt, b: float, has_shear: bool, sa: float, sb: float,
                   poses, covs):
-    """:func:`predict_pose` for each row of ``u`` (k, 2) and ``dt`` (k,), in order.
+    """:func:`predict_pose` for each row of ``u`` (k, 2), ``dt`` (k,) and ``Q`` (k, 2, 2), in order.
+
+    ``Q[k]`` is step k's covariance of ``u`` (the same matrix for every step
+    when the filter has one ``Q``: a broadcast view; one per step when the
+    noise is a density, ``Q_k = Q_c / dt_k``, chapter 10).
 
     Writes the pose and ``P_rr`` after each step into ``poses`` (k, 3) and
     ``covs`` (k, 3, 3) (what a trace records), and returns the pending shear
@@ -135,7 +139,7 @@ def predict_poses(x, P, Q, u, dt, b: float, has_shear: bool, sa: float, sb: floa
     in the order the steps are made (as one prediction at a time would).
     """
     for k in range(dt.shape[0]):
-        a, bb = predict_pose(x, P, Q, u[k, 0], u[k, 1], dt[k], b)
+        a, bb = predict_pose(x, P, Q[k], u[k, 0], u[k, 1], dt[k], b)
         if has_shear:
             sa, sb = sa + a, sb + bb
         else:

@@ -309,6 +309,12 @@ class Run:
             var += self.quantisation_variance(dt)
         return var * np.eye(2)
 
+    def Q_steps(self, dt: np.ndarray) -> np.ndarray | None:
+        """Each step's covariance of ``u`` (k, 2, 2) for the steps ``dt`` (k,), or None when
+        every step takes :meth:`Q` (a simulated run). A real log whose noise is a density
+        (chapter 10) gives ``Q_c / dt_k``."""
+        return None
+
     # ------------------------------------------------------------------ helpers
     def controls(self) -> tuple[np.ndarray, np.ndarray]:
         """Wheel speeds from the encoders (chapter 01).

@@ -8,7 +8,7 @@ import pytest
 
 from slamlib import kernels, runner, sim
 from slamlib.ekf import EKFSLAM, EKFLocalization
-from slamlib.models import _motion_step, _wrap_scalar, motion_model
+from slamlib.models import _motion_step, _wrap_scalar, motion_jacobians, motion_model
 
 Q = np.diag([0.02 ** 2, 0.03 ** 2])
 
@@ -68,6 +68,27 @@ def test_predict_block_equals_one_prediction_at_a_time(pending):
         assert np.array_equal(poses[k], b.pose) and np.array_equal(covs[k], b.pose_cov)
     assert a._shear == b._shear
     assert np.array_equal(a.x, b.x) and np.array_equal(a.P, b.P)
+
+
+def test_predict_block_with_a_q_per_step_equals_one_prediction_at_a_time():
+    # a noise density gives each step its own Q (Q_c / dt_k, chapter 10)
+    a, b = _slam_with_landmarks(3), _slam_with_landmarks(3)
+    rng = np.random.default_rng(5)
+    u, dt = rng.normal(0.2, 0.1, (29, 2)), rng.uniform(0.001, 0.5, 29)
+    Qc = np.array([[2e-4, 1e-4], [1e-4, 3e-4]])
+    Qs = Qc[None] / dt[:, None, None]
+    poses, covs = a._predict_block(u, dt, Qs)
+    for k in range(29):
+        P = b.pose_cov
+        A, W = motion_jacobians(b.pose, u[k], float(dt[k]), b.wheel_base)
+        b.predict(u[k], float(dt[k]), Qs[k])
+        assert np.array_equal(poses[k], b.pose) and np.array_equal(covs[k], b.pose_cov)
+        # the textbook formula with this step's Q, A and W
+        np.testing.assert_allclose(b.pose_cov, A @ P @ A.T + W @ Qs[k] @ W.T, rtol=1e-12,
+                                   atol=1e-15)
+    assert np.array_equal(a.x, b.x) and np.array_equal(a.P, b.P)
+    with pytest.raises(ValueError, match="Q: expected a symmetric"):
+        b.predict(u[0], 0.1, [[1.0, 0.5], [0.0, 1.0]])
 
 
 def test_observe_into_against_the_formulas_and_a_landmark_on_the_robot():

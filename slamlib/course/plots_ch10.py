@@ -7,7 +7,8 @@ import numpy as np
 
 from . import plots
 
-__all__ = ["plot_paths", "plot_yaw_rates", "plot_reading_residuals", "plot_slam_comparison"]
+__all__ = ["plot_paths", "plot_yaw_rates", "plot_whiteness", "plot_reading_residuals",
+           "plot_slam_comparison", "plot_heldout"]
 
 
 def plot_paths(ax, logs, world):
@@ -30,7 +31,8 @@ def plot_paths(ax, logs, world):
     return ax
 
 def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
-    """Vicon's yaw rate against the logged command and the calibrated one (z-down)."""
+    """Vicon's yaw rate against the logged command and the corrected one (z-down);
+    ``cal`` an :class:`~slamlib.datasets.identify.CommandFit`."""
     from ..datasets import identify
 
     raw = identify.odometry_windows(log, window=0.25)
@@ -47,6 +49,48 @@ def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
     ax.set_ylabel("yaw rate, z-down (rad/s)")
     ax.legend(fontsize=8)
     ax.grid(True, lw=0.4, alpha=0.5)
+    return ax
+
+def plot_whiteness(ax, white, q_textbook=None):
+    """The density ``q(T) = T mean(r^2)`` of the window residuals against the window ``T``,
+    each relative to its value at 1 s: flat for white noise (log-log axes)."""
+    T = white.windows
+    k = int(np.argmin(np.abs(T - 1.0)))
+    for q, c, name in ((white.q_w, "tab:blue", "yaw rate"), (white.q_v, "tab:red",
+                                                             "forward speed")):
+        ax.plot(T, q / q[k], "o-", color=c, lw=1.2, ms=4, label=name)
+    ax.axhline(1.0, color="k", lw=0.8, ls="--", label="white noise (flat)")
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log", base=2)
+    ax.set_xticks(T)
+    ax.set_xticklabels([f"{t:g}" for t in T])
+    ax.set_xlabel("window T (s)")
+    ax.set_ylabel("q(T) / q(1 s)")
+    ax.grid(True, which="both", lw=0.4, alpha=0.5)
+    ax.legend(fontsize=9)
+    return ax
+
+def plot_heldout(ax, study, variant, reference="textbook", splits=None,
+                 markers=("o", "s", "^", "D")):
+    """Each held-out run (robot and split) as a dot: ``reference``'s ATE across, ``variant``'s
+    up (log axes); below the diagonal ``variant`` did better."""
+    splits = splits or study.splits
+    lo, hi = np.inf, 0.0
+    for s, m in zip(splits, markers):
+        a, b = study.ate(s, reference), study.ate(s, variant)
+        ax.plot(a, b, m, ms=6, mfc="none", mew=1.3, label=s.replace("_", " "))
+        lo, hi = min(lo, a.min(), b.min()), max(hi, a.max(), b.max())
+    lim = (0.8 * lo, 1.25 * hi)
+    ax.plot(lim, lim, "k", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(lim)
+    ax.set_ylim(lim)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"ATE with {reference} (m)")
+    ax.set_ylabel(f"ATE with {variant} (m)")
+    ax.grid(True, which="both", lw=0.4, alpha=0.5)
+    ax.legend(fontsize=9, title="held-out split", title_fontsize=9)
     return ax
 
 def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
