@@ -57,14 +57,14 @@ def test_chapter_03_nees_prediction_reads_the_stored_study(capsys):
 
     assert not check_nees_prediction(None)
     out = capsys.readouterr().out
-    assert "not written yet" in out and "2.5" not in out
+    assert "not written yet" in out and "2.9" not in out
     runs = json.loads((EVIDENCE_DIR / "arena_localization.json").read_text())["runs"]
     want = np.mean([r["assumed/2"]["nees_sum"] / r["assumed/2"]["n"] for r in runs])
     assert check_nees_prediction(float(want))
     out = capsys.readouterr().out
     assert f"measured {want:.4g}" in out and "Right" in out
     assert not check_nees_prediction(3.0)
-    assert "Not quite: a justified prediction is 1 to 2.5" in capsys.readouterr().out
+    assert "Not quite: a justified prediction is 0.75 to 2.9" in capsys.readouterr().out
 
 
 def test_chapter_04_second_reading_kept_leaves_the_heading_sigma(capsys):

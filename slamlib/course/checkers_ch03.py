@@ -172,7 +172,9 @@ _WHY_R_TOO_LARGE = (
     "e^T P^-1 e falls below 3. But not by four: P is not made of R alone. Between frames the "
     "odometry's Q adds the same uncertainty as before, and the estimate's error hardly changes "
     "(the ATE is the same to 0.2 mm), so the NEES lands between 3/4 (if P were all R) and 3 "
-    "(if it were all Q): about 1 to 2.5.")
+    "(if it were all Q). Part of the measured drop is the gate: with R this large it rejects "
+    "almost no reading, and the censoring that added about 0.24 to the NEES with the right R "
+    "(section 5) is gone.")
 
 
 def check_nees_prediction(answer, verbose: bool = True) -> bool:
@@ -180,7 +182,8 @@ def check_nees_prediction(answer, verbose: bool = True) -> bool:
     camera is twice as noisy as it is (R four times too large), chapter 03, section 7.
 
     Measured on the stored 100-seed study ``arena_localization`` (its ``assumed/2`` part,
-    gate 0.95); a justified prediction is 1 to 2.5. The range and the argument are printed
+    gate 0.95); a justified prediction is 0.75 to 2.9 (between 3/4 and 3, the argument's
+    bounds, 3 itself excluded: R is part of P). The range and the argument are printed
     only once an answer is given (:func:`slamlib.course.predictions.check_prediction`).
     """
     from . import evidence
@@ -194,8 +197,11 @@ def check_nees_prediction(answer, verbose: bool = True) -> bool:
 
         right, twice = per_run("clean/0.95"), per_run("assumed/2")
         half = 1.96 * twice.std(ddof=1) / np.sqrt(twice.size)
+        rej = (evidence.column(study, "assumed/2", "rejected").sum()
+               / evidence.column(study, "assumed/2", "gated").sum())
         return twice.mean(), (f"mean pose NEES over {twice.size} stored seeded runs, gate 0.95, "
-                              f"interval +- {half:.2f}; with the right R {right.mean():.2f}")
+                              f"interval +- {half:.2f}, {rej:.1%} of the readings rejected; "
+                              f"with the right R {right.mean():.2f}")
 
-    return check_prediction(answer, measure, accept=(1.0, 2.5), why=_WHY_R_TOO_LARGE,
+    return check_prediction(answer, measure, accept=(0.75, 2.9), why=_WHY_R_TOO_LARGE,
                             name="average NEES with R too large", verbose=verbose)

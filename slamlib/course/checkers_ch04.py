@@ -129,7 +129,11 @@ _WHY_SECOND_READING = (
     "H_landmark J1 = 0 (h(x_B, g(x_B, z)) = z for every pose). So z2 = H_landmark J2 v1 + v2 "
     "depends on the two readings' noise only, not on the robot: it says nothing about the "
     "pose, and with the cross-covariances the filter knows it. Without them it believes the "
-    "landmark is independent of the robot and 'learns' a pose it was never told.")
+    "landmark is independent of the robot and 'learns' a pose it was never told. (The "
+    "cancellation needs both Jacobians at the same estimate, as here. In a running filter the "
+    "pose estimate moves between the landmark's creation and its next reading, the cancellation "
+    "fails and the filter gains heading information it does not have: chapter 06, First-"
+    "Estimates Jacobians.)")
 
 _R_SECOND = np.diag([0.05 ** 2, np.radians(2.0) ** 2])   # chapter 04's R: 5 cm, 2 degrees
 

@@ -7,8 +7,9 @@ import matplotlib.pyplot as plt
 import numpy as np
 
 from ..models import KOBUKI_TICKS_PER_REV, KOBUKI_WHEEL_RADIUS, tick_difference
+from .plots import plot_covariance_ellipse
 
-__all__ = ["plot_encoder_counters"]
+__all__ = ["plot_encoder_counters", "mark_ellipse_times"]
 
 
 def plot_encoder_counters(run):
@@ -28,3 +29,19 @@ def plot_encoder_counters(run):
     axes[1].legend(fontsize=9)
     fig.tight_layout()
     return fig
+
+
+def mark_ellipse_times(ax, trace, times, nsigma: float = 2.0, color: str = "tab:orange"):
+    """Outline the ``nsigma`` pose ellipse of ``trace`` at each of ``times`` (s) on a top view
+    and label it with its time, so that a sentence about "the ellipse after 5 s" can be
+    found in the figure. Each time snaps to the nearest sample of the trace. Returns the
+    sample indices used."""
+    ks = []
+    for t in times:
+        k = int(np.argmin(np.abs(np.asarray(trace.t) - float(t))))
+        plot_covariance_ellipse(ax, trace.x[k], trace.P[k], nsigma, color=color, fill=False,
+                                alpha=1.0, lw=1.5)
+        ax.annotate(f"{trace.t[k]:.0f} s", xy=trace.x[k, :2], xytext=(8, -8),
+                    textcoords="offset points", fontsize=9, color=color, fontweight="bold")
+        ks.append(k)
+    return ks
