@@ -7,6 +7,7 @@ from __future__ import annotations
 
 import numpy as np
 import pytest
+from same_record import assert_same_record
 
 from slamlib import runner, sim
 from slamlib.course import linearisation_study as ls
@@ -54,7 +55,7 @@ def test_a_sample_of_the_stored_runs_is_recomputed_exactly(sigma, seeds, methods
     stored = STORED["studies"][f"{sigma:.2f}"]
     for m in methods:
         for seed, run in zip(seeds, res[m]["runs"]):
-            assert run == stored[m]["runs"][seed - STORED["seeds"][0]], (m, seed)
+            assert_same_record(run, stored[m]["runs"][seed - STORED["seeds"][0]], f"{m} {seed}")
 
 
 def test_the_same_runs_as_the_consistency_study():

@@ -7,6 +7,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
+from same_record import assert_same_record
 
 from slamlib.course import mrclam_heldout as mh
 from slamlib.datasets import identify, mrclam
@@ -36,9 +37,10 @@ def test_the_excerpts_split_is_what_the_code_computes(stored):
                          variants=("textbook", mh.CHOSEN), in_sample=(mh.CHOSEN,))
     old = stored.data["splits"]["robots_excerpt"]
     for v in ("textbook", mh.CHOSEN):
-        assert fresh["variants"][v]["ate"] == old["variants"][v]["ate"], v
-    assert fresh["variants"][mh.CHOSEN]["calibration"] == old["variants"][mh.CHOSEN]["calibration"]
-    assert fresh["in_sample"][mh.CHOSEN] == old["in_sample"][mh.CHOSEN]
+        assert_same_record(fresh["variants"][v]["ate"], old["variants"][v]["ate"], v)
+    assert_same_record(fresh["variants"][mh.CHOSEN]["calibration"],
+                       old["variants"][mh.CHOSEN]["calibration"], "calibration")
+    assert_same_record(fresh["in_sample"][mh.CHOSEN], old["in_sample"][mh.CHOSEN], "in sample")
     # and independently of the study's code: robot 3 with the noise of robots 1, 2, 4, 5
     cal = identify.identify([logs[k] for k in (1, 2, 4, 5)])
     ate = mrclam.slam(mrclam.load(mrclam.EXCERPT_DIR, 3, calibration=cal)).metrics()["ate_xy"]
