@@ -20,7 +20,8 @@ from slamlib.runs import load_run
                                          ("arena_slam", (1, 37)),
                                          ("arena_slam_misreads", (42,)),
                                          ("arena_camera", (23,)),
-                                         ("explore_world5", (5,))])
+                                         ("explore_world5", (5,)),
+                                         ("arena_noise", (1, 58))])
 def test_stored_study_recomputes_exactly(name, seeds):
     """A sample of the stored seeds, recomputed from scratch, gives the stored numbers bit
     for bit (the file was made by the code under test, not edited)."""
