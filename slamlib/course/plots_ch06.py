@@ -6,15 +6,26 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
+from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
 
 from .plots import DPI
 
 __all__ = ["plot_nees_averages", "plot_density_sweep", "plot_closure_against_nees"]
 
 
+def _plain_log_ticks(ax, axis: str = "y") -> None:
+    """Log-axis ticks at 1, 2, 5 times the powers of ten, written as plain numbers (``2``, not
+    ``2 x 10^0``), and no labels on the minor ticks: they crowd when the range is short."""
+    target = ax.yaxis if axis == "y" else ax.xaxis
+    target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
+    target.set_minor_formatter(NullFormatter())
+
+
 def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
                        title: str | None = None,
-                       colors=("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange")):
+                       colors=("tab:red", "tab:blue", "tab:green", "tab:purple", "tab:orange"),
+                       events=(), legend: str = "inside"):
     """Monte-Carlo average NEES curves against their band (chapter 06, stored studies).
 
     Parameters
@@ -26,6 +37,10 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
         Runs in each average (the band is :func:`slamlib.metrics.chi2_band`
         ``(dof, n_runs, prob)``, valid at each instant).
     axes : two Axes, optional
+    events : sequence of (t, label)
+        Instants marked by a vertical line on both panels, labelled on the left one.
+    legend : {"inside", "below"}
+        One legend in the left panel, or one under both panels (for many curves).
 
     Returns
     -------
@@ -33,8 +48,11 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
     """
     from ..metrics import chi2_band
 
-    if axes is None:
-        fig, axes = plt.subplots(1, 2, figsize=(11, 3.4), dpi=DPI)
+    if legend not in ("inside", "below"):
+        raise ValueError(f"legend: expected 'inside' or 'below', got {legend!r}")
+    if axes is None:                      # room for a legend below: 0.2 in per row of three
+        below = 0.2 * -(-(len(curves) + 1) // 3) if legend == "below" else 0.0
+        fig, axes = plt.subplots(1, 2, figsize=(11, 3.4 + below), dpi=DPI)
     fig = axes[0].figure
     for ax, k, dof, name in ((axes[0], 1, 3, "pose NEES"), (axes[1], 2, 1, "heading NEES")):
         lo, hi = chi2_band(dof, n_runs, prob)
@@ -45,13 +63,28 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
         for (label, c), col in zip(curves.items(), colors):
             ax.plot(c[0], c[k], color=col, lw=1.2, label=label)
         ax.set_yscale("log")
+        _plain_log_ticks(ax)
+        for t, text in events:
+            ax.axvline(t, color="0.35", lw=0.9, ls="--")
+            if ax is axes[0]:
+                ax.annotate(text, (t, 1.0), xycoords=("data", "axes fraction"),
+                            xytext=(-3, -3), textcoords="offset points", rotation=90,
+                            ha="right", va="top", fontsize=8, color="0.25")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"average {name}")
         ax.grid(True, lw=0.4, alpha=0.5, which="both")
-    axes[0].legend(fontsize=8, loc="upper left")
+    if legend == "inside":
+        axes[0].legend(fontsize=8, loc="upper left")
     if title:
         fig.suptitle(title, fontsize=10)
-    fig.tight_layout()
+    if legend == "below":                 # the legend's rows under the axes, the axes above them
+        handles, labels = axes[0].get_legend_handles_labels()
+        rows = -(-len(labels) // 3)
+        height = (0.05 + 0.2 * rows) / fig.get_figheight()
+        fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+        fig.tight_layout(rect=(0.0, height, 1.0, 1.0))
+    else:
+        fig.tight_layout()
     return fig, axes
 
 
@@ -73,6 +106,7 @@ def plot_density_sweep(rows, counts):
                 label="median")
         ax.set_xscale("log", base=2)
         ax.set_yscale("log")
+        _plain_log_ticks(ax)
         ax.set_xticks(counts, [str(n) for n in counts])
         ax.set_xlabel("markers in the world")
         ax.set_ylabel(label)
@@ -102,6 +136,8 @@ def plot_closure_against_nees(stored: dict, settings):
                label="pose NEES 7.81 (95 % of chi2(3))")
     ax.set_xscale("log")
     ax.set_yscale("log")
+    _plain_log_ticks(ax, "x")
+    _plain_log_ticks(ax, "y")
     ax.set_xlabel("pose NEES just before the loop-closure reading")
     ax.set_ylabel("D^2 of the loop-closure reading")
     ax.set_title("EKF SLAM, 100 seeds per setting: a rejection comes with an overconfident "
