@@ -6,18 +6,40 @@ from __future__ import annotations
 
 import matplotlib.pyplot as plt
 import numpy as np
-from matplotlib.ticker import FuncFormatter, LogLocator, NullFormatter
+from matplotlib.ticker import FuncFormatter, Locator, LogLocator, NullFormatter
 
 from .plots import DPI
 
 __all__ = ["plot_nees_averages", "plot_density_sweep", "plot_closure_against_nees"]
 
 
+class _PlainLogLocator(Locator):
+    """Major ticks of a log axis, as many as its range can carry: powers of ten alone over
+    more than three decades, 1-2-5 over one to three, finer steps inside one decade (a
+    log axis from 2.5 to 4 would otherwise carry no label at all)."""
+
+    STEPS = ((3.0, (1.0,)), (1.2, (1.0, 2.0, 5.0)), (0.5, (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)),
+             (0.0, (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)))
+
+    def __call__(self):
+        return self.tick_values(*self.axis.get_view_interval())
+
+    def tick_values(self, vmin, vmax):
+        lo, hi = sorted((float(vmin), float(vmax)))
+        if not (np.isfinite(lo) and np.isfinite(hi)) or lo <= 0.0:
+            return LogLocator().tick_values(vmin, vmax)
+        decades = np.log10(hi / lo)
+        subs = next(s for d, s in self.STEPS if decades > d)
+        powers = range(int(np.floor(np.log10(lo))), int(np.ceil(np.log10(hi))) + 1)
+        ticks = [m * 10.0 ** e for e in powers for m in subs]
+        return np.array([v for v in ticks if lo * (1 - 1e-9) <= v <= hi * (1 + 1e-9)])
+
+
 def _plain_log_ticks(ax, axis: str = "y") -> None:
-    """Log-axis ticks at 1, 2, 5 times the powers of ten, written as plain numbers (``2``, not
-    ``2 x 10^0``), and no labels on the minor ticks: they crowd when the range is short."""
+    """Log-axis ticks written as plain numbers (``2``, not ``2 x 10^0``), as many as the
+    range can carry (:class:`_PlainLogLocator`), and no labels on the minor ticks."""
     target = ax.yaxis if axis == "y" else ax.xaxis
-    target.set_major_locator(LogLocator(base=10.0, subs=(1.0, 2.0, 5.0)))
+    target.set_major_locator(_PlainLogLocator())
     target.set_major_formatter(FuncFormatter(lambda v, _: f"{v:g}"))
     target.set_minor_formatter(NullFormatter())
 
@@ -39,8 +61,9 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
     axes : two Axes, optional
     events : sequence of (t, label)
         Instants marked by a vertical line on both panels, labelled on the left one.
-    legend : {"inside", "below"}
-        One legend in the left panel, or one under both panels (for many curves).
+    legend : {"inside", "below", "none"}
+        One legend in the left panel, one under both panels (for many curves or long
+        labels: three columns, two if a label is long), or none (the caller draws one).
 
     Returns
     -------
@@ -48,10 +71,11 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
     """
     from ..metrics import chi2_band
 
-    if legend not in ("inside", "below"):
-        raise ValueError(f"legend: expected 'inside' or 'below', got {legend!r}")
-    if axes is None:                      # room for a legend below: 0.2 in per row of three
-        below = 0.2 * -(-(len(curves) + 1) // 3) if legend == "below" else 0.0
+    if legend not in ("inside", "below", "none"):
+        raise ValueError(f"legend: expected 'inside', 'below' or 'none', got {legend!r}")
+    ncol = 3 if max(len(str(label)) for label in curves) <= 40 else 2
+    if axes is None:                      # room for a legend below: 0.2 in per row
+        below = 0.2 * -(-(len(curves) + 1) // ncol) if legend == "below" else 0.0
         fig, axes = plt.subplots(1, 2, figsize=(11, 3.4 + below), dpi=DPI)
     fig = axes[0].figure
     for ax, k, dof, name in ((axes[0], 1, 3, "pose NEES"), (axes[1], 2, 1, "heading NEES")):
@@ -69,7 +93,9 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
             if ax is axes[0]:
                 ax.annotate(text, (t, 1.0), xycoords=("data", "axes fraction"),
                             xytext=(-3, -3), textcoords="offset points", rotation=90,
-                            ha="right", va="top", fontsize=8, color="0.25")
+                            ha="right", va="top", fontsize=8, color="0.25",
+                            bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none",
+                                      alpha=0.85))
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"average {name}")
         ax.grid(True, lw=0.4, alpha=0.5, which="both")
@@ -79,9 +105,9 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
         fig.suptitle(title, fontsize=10)
     if legend == "below":                 # the legend's rows under the axes, the axes above them
         handles, labels = axes[0].get_legend_handles_labels()
-        rows = -(-len(labels) // 3)
+        rows = -(-len(labels) // ncol)
         height = (0.05 + 0.2 * rows) / fig.get_figheight()
-        fig.legend(handles, labels, loc="lower center", ncol=3, fontsize=8, frameon=False)
+        fig.legend(handles, labels, loc="lower center", ncol=ncol, fontsize=8, frameon=False)
         fig.tight_layout(rect=(0.0, height, 1.0, 1.0))
     else:
         fig.tight_layout()
@@ -143,6 +169,6 @@ def plot_closure_against_nees(stored: dict, settings):
     ax.set_title("EKF SLAM, 100 seeds per setting: a rejection comes with an overconfident "
                  "filter", fontsize=9)
     ax.grid(True, lw=0.4, alpha=0.5, which="both")
-    ax.legend(fontsize=8, loc="upper left")
+    ax.legend(fontsize=8, loc="lower right")
     plt.tight_layout()
     return fig
