@@ -60,7 +60,7 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
         ``(dof, n_runs, prob)``, valid at each instant).
     axes : two Axes, optional
     events : sequence of (t, label)
-        Instants marked by a vertical line on both panels, labelled on the left one.
+        Instants marked by a vertical line on both panels, labelled above the left one.
     legend : {"inside", "below", "none"}
         One legend in the left panel, one under both panels (for many curves or long
         labels: three columns, two if a label is long), or none (the caller draws one).
@@ -88,14 +88,14 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
             ax.plot(c[0], c[k], color=col, lw=1.2, label=label)
         ax.set_yscale("log")
         _plain_log_ticks(ax)
-        for t, text in events:
+        for j, (t, text) in enumerate(events):
             ax.axvline(t, color="0.35", lw=0.9, ls="--")
-            if ax is axes[0]:
-                ax.annotate(text, (t, 1.0), xycoords=("data", "axes fraction"),
-                            xytext=(-3, -3), textcoords="offset points", rotation=90,
-                            ha="right", va="top", fontsize=8, color="0.25",
-                            bbox=dict(boxstyle="square,pad=0.1", fc="white", ec="none",
-                                      alpha=0.85))
+            if ax is axes[0]:             # above the axes: the first label ends at its line,
+                tag = f"{text} \u2192" if j == 0 else f"\u2190 {text}"   # later ones start there
+                ax.annotate(tag,
+                            (t, 1.0), xycoords=("data", "axes fraction"), xytext=(0, 2),
+                            textcoords="offset points", ha="right" if j == 0 else "left",
+                            va="bottom", fontsize=8, color="0.25")
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"average {name}")
         ax.grid(True, lw=0.4, alpha=0.5, which="both")
@@ -148,7 +148,7 @@ def plot_closure_against_nees(stored: dict, settings):
     accepted it; ``settings`` are ``(study key, colour, label)``. Returns the figure."""
     from scipy.stats import chi2
 
-    fig, ax = plt.subplots(figsize=(7.5, 4.0))
+    fig, ax = plt.subplots(figsize=(7.5, 4.9))
     for key, color, label in settings:
         runs = stored["studies"][key]["methods"]["slam"]["runs"]
         nb = np.array([r["nees_before_closure"] for r in runs], dtype=float)
@@ -169,6 +169,7 @@ def plot_closure_against_nees(stored: dict, settings):
     ax.set_title("EKF SLAM, 100 seeds per setting: a rejection comes with an overconfident "
                  "filter", fontsize=9)
     ax.grid(True, lw=0.4, alpha=0.5, which="both")
-    ax.legend(fontsize=8, loc="lower right")
+    ax.legend(fontsize=8, loc="upper center", bbox_to_anchor=(0.5, -0.14), ncol=2,
+              frameon=False)                  # under the axes: no dot hidden
     plt.tight_layout()
     return fig
