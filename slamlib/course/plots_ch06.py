@@ -16,10 +16,12 @@ __all__ = ["plot_nees_averages", "plot_density_sweep", "plot_closure_against_nee
 class _PlainLogLocator(Locator):
     """Major ticks of a log axis, as many as its range can carry: powers of ten alone over
     more than three decades, 1-2-5 over one to three, finer steps inside one decade (a
-    log axis from 2.5 to 4 would otherwise carry no label at all)."""
+    log axis from 2.5 to 3.6 would otherwise carry one label or none)."""
 
     STEPS = ((3.0, (1.0,)), (1.2, (1.0, 2.0, 5.0)), (0.5, (1.0, 1.5, 2.0, 3.0, 5.0, 7.0)),
-             (0.0, (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)))
+             (0.25, (1.0, 1.2, 1.5, 2.0, 2.5, 3.0, 4.0, 5.0, 6.0, 8.0)),
+             (-1.0, (1.0, 1.1, 1.2, 1.4, 1.6, 1.8, 2.0, 2.25, 2.5, 2.75, 3.0, 3.5, 4.0, 4.5, 5.0,
+                     6.0, 7.0, 8.0, 9.0)))
 
     def __call__(self):
         return self.tick_values(*self.axis.get_view_interval())
