@@ -51,7 +51,11 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     ax.plot(pts[:, 0], pts[:, 1], "s", ms=8, zorder=5,
             label=f"landmark variables ({len(L)})", **_LM)
     for m, p in L.items():
-        ax.annotate(f"l{m}", p, textcoords="offset points", xytext=(5, -9), fontsize=8, **_LM)
+        # a landmark just to the right would hide the label: put it on the left
+        left = any(0.0 < q[0] - p[0] < 0.4 and abs(q[1] - p[1]) < 0.3
+                   for k, q in L.items() if k != m)
+        ax.annotate(f"l{m}", p, textcoords="offset points", xytext=(-7, -9) if left else (5, -9),
+                    ha="right" if left else "left", fontsize=8, **_LM)
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     if title:
         ax.set_title(title)
