@@ -8,7 +8,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from .harness import attempt, matching_mistakes, name_of, one_number, printer, vector_answer
+from .harness import attempt, matching_mistakes, name_of, one_number, printer
 
 __all__ = ["check_average_nees_band", "check_rotation_seen"]
 
@@ -101,7 +101,8 @@ def rotation_seen(pose, landmark_h, landmark_n) -> float:
     pose, landmark_n = np.asarray(pose, dtype=float), np.asarray(landmark_n, dtype=float)
     Hp, Hl = observation_jacobians(pose, np.asarray(landmark_h, dtype=float))
     H = np.hstack([Hp, Hl])
-    return float(np.linalg.norm(H @ rotation_direction(np.r_[pose, landmark_n])) / np.linalg.norm(H))
+    n_phi = rotation_direction(np.r_[pose, landmark_n])
+    return float(np.linalg.norm(H @ n_phi) / np.linalg.norm(H))
 
 
 def check_rotation_seen(fn, verbose: bool = True) -> bool:
@@ -117,7 +118,8 @@ def check_rotation_seen(fn, verbose: bool = True) -> bool:
     cases = []
     for moved in (0.0, 0.0, 0.05, 0.2, 0.5):
         pose = np.r_[rng.uniform(-2, 2, 2), rng.uniform(-np.pi, np.pi)]
-        lm = pose[:2] + rng.uniform(1.0, 3.0) * np.array([np.cos(pose[2] + 0.3), np.sin(pose[2] + 0.3)])
+        ahead = np.array([np.cos(pose[2] + 0.3), np.sin(pose[2] + 0.3)])
+        lm = pose[:2] + rng.uniform(1.0, 3.0) * ahead
         cases.append((pose, lm + moved * rng.normal(size=2), lm))
 
     def h_of(pose, lh):
@@ -131,7 +133,7 @@ def check_rotation_seen(fn, verbose: bool = True) -> bool:
         "divide by |H| (np.linalg.norm of the 2x5 [H_pose, H_landmark])":
             lambda p, lh, ln: rotation_seen(p, lh, ln) * np.linalg.norm(h_of(p, lh)),
         "N_phi moves the landmark too: it has five entries, [-y, x, 1, -y_1, x_1]":
-            lambda p, lh, ln: float(np.linalg.norm(h_of(p, lh)[:, :3] @ np.array([-p[1], p[0], 1.0]))
+            lambda p, lh, ln: float(np.linalg.norm(h_of(p, lh)[:, :3] @ [-p[1], p[0], 1.0])
                                     / np.linalg.norm(h_of(p, lh))),
     }
     answers = []
@@ -145,14 +147,16 @@ def check_rotation_seen(fn, verbose: bool = True) -> bool:
             say(f"{name}: expected one number ({exc}).")
             return False
     want = [rotation_seen(*c) for c in cases]
-    wrong = [i for i, (a, w) in enumerate(zip(answers, want)) if not np.isclose(a, w, rtol=1e-6, atol=1e-9)]
+    wrong = [i for i, (a, w) in enumerate(zip(answers, want))
+             if not np.isclose(a, w, rtol=1e-6, atol=1e-9)]
     if not wrong:
         say(f"{name}: correct: 0 when H and N_phi are at the same point, up to {max(want):.2f} "
             "here when the landmark moved between them.")
         return True
     i = wrong[0]
     pose, lh, ln = cases[i]
-    say(f"{name}: not right for pose {np.round(pose, 3).tolist()}, landmark_h {np.round(lh, 3).tolist()}, "
+    say(f"{name}: not right for pose {np.round(pose, 3).tolist()}, "
+        f"landmark_h {np.round(lh, 3).tolist()}, "
         f"landmark_n {np.round(ln, 3).tolist()}: got {answers[i]:.6f}, expected {want[i]:.6f}.")
     hints = matching_mistakes(mistakes, answers, cases,
                               lambda a, b: bool(np.isclose(a, b, rtol=1e-6, atol=1e-9)))
