@@ -546,6 +546,70 @@ def test_nees_band_checker_agrees_with_the_library_band():
     assert check_average_nees_band(lambda n, d, p: chi2_band(d, n, p), verbose=False) is True
 
 
+def _rotate_everything(x, phi):
+    # the whole state turned by phi about the origin: every point rotated, the heading plus phi
+    c, s = np.cos(phi), np.sin(phi)
+    pts = np.vstack([x[:2], x[3:].reshape(-1, 2)]) @ np.array([[c, s], [-s, c]])
+    return np.r_[pts[0], x[2] + phi, pts[1:].reshape(-1)]
+
+
+def _seen_by_differences(pose, landmark_h, landmark_n, h=1e-6):
+    # independent of the checker: H by central differences of observe() at (pose, landmark_h),
+    # N_phi by central differences of a rotation of (pose, landmark_n) about the origin
+    from slamlib.models import observe
+
+    x0 = np.r_[pose, landmark_h]
+    H = np.column_stack([(observe((x0 + e)[:3], (x0 + e)[3:]) - observe((x0 - e)[:3], (x0 - e)[3:]))
+                         / (2 * h) for e in np.eye(5) * h])
+    n = (_rotate_everything(np.r_[pose, landmark_n], h)
+         - _rotate_everything(np.r_[pose, landmark_n], -h)) / (2 * h)
+    return np.linalg.norm(H @ n) / np.linalg.norm(H)
+
+
+def test_rotation_seen_checker_accepts_finite_differences(capsys):
+    """The right answer, computed by finite differences alone, passes; at one point a reading
+    sees no rotation, with the landmark moved between H's point and N_phi's it does."""
+    from slamlib.course.checkers_ch06 import check_rotation_seen
+
+    assert check_rotation_seen(_seen_by_differences) is True
+    assert "correct" in capsys.readouterr().out
+    pose, m = np.array([1.0, -0.5, 0.4]), np.array([2.5, 0.3])
+    assert _seen_by_differences(pose, m, m) < 1e-6
+    assert _seen_by_differences(pose, m + [0.05, -0.03], m) > 1e-3
+
+
+@pytest.mark.parametrize("wrong, words", [
+    ("same_point", "H's own point"),
+    ("not_divided", "divide by |H|"),
+    ("pose_only", "moves the landmark too"),
+])
+def test_rotation_seen_checker_names_the_mistake(capsys, wrong, words):
+    from slamlib.course.checkers_ch06 import check_rotation_seen
+    from slamlib.models import observation_jacobians
+
+    def mine(pose, landmark_h, landmark_n):
+        H = np.hstack(observation_jacobians(pose, landmark_h))
+        at = landmark_h if wrong == "same_point" else landmark_n
+        n = np.r_[-pose[1], pose[0], 1.0, -at[1], at[0]]
+        if wrong == "pose_only":
+            n[3:] = 0.0
+        seen = np.linalg.norm(H @ n)
+        return seen if wrong == "not_divided" else seen / np.linalg.norm(H)
+
+    assert check_rotation_seen(mine) is False
+    out = capsys.readouterr().out
+    assert "not right" in out and words in out
+
+
+def test_rotation_seen_checker_refuses_a_stub_or_a_vector(capsys):
+    from slamlib.course.checkers_ch06 import check_rotation_seen
+
+    assert check_rotation_seen(lambda p, a, b: None) is False
+    assert "not written yet" in capsys.readouterr().out
+    assert check_rotation_seen(lambda p, a, b: np.zeros(2)) is False
+    assert "one number" in capsys.readouterr().out
+
+
 # --------------------------------------------------------------------------- chapter 08
 def test_history_index_checker_accepts_the_library_and_a_loop(capsys):
     from slamlib.course.checkers_ch08 import check_history_index

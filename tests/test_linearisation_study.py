@@ -81,6 +81,24 @@ def test_rows_and_t_eff_read_the_file():
         ls.method_links("ekf_motion_first_nogate")
 
 
+def test_rows_at_later_instants_read_the_grid():
+    """The averages at any grid time: at 36-40 s they are the mean of the runs' own kept NEES
+    (stored separately); at 46 s the grid's element 91 (0.5 s steps from 0.5 s); off the grid
+    or past its end, a ValueError."""
+    for sigma in ("0.10", "0.14"):
+        block = STORED["studies"][sigma]
+        rows = {r["method"]: r for r in ls.ablation_rows(STORED, sigma, ("ekf", "ekf_obs_first"))}
+        for m, row in rows.items():
+            kept = np.mean([r["nees_at"] for r in block[m]["runs"]], axis=0)
+            assert np.allclose(row["avg_at"], kept, rtol=1e-9), (sigma, m)
+        later = ls.ablation_rows(STORED, sigma, ("ekf_obs_first",), instants=(36.0, 46.0))[0]
+        assert later["avg_at"][1] == block["ekf_obs_first"]["avg"][91]
+        assert later["heading_at"][0] == block["ekf_obs_first"]["avg_heading"][71]
+    for bad in ((46.25,), (60.0,)):
+        with pytest.raises(ValueError, match="instants"):
+            ls.ablation_rows(STORED, "0.10", ("ekf",), instants=bad)
+
+
 def test_t_eff_of_independent_instants_is_their_number():
     """Runs of T independent chi-square(3) instants: T_eff = T (closed form); runs that hold one
     value: 1; from the stored moments as from the whole array."""
@@ -129,3 +147,18 @@ def test_the_numbers_do_not_depend_on_the_number_of_workers():
     one = ls.run_study((1044, 1071), workers=1, sigmas=(0.14,), methods=("ekf", "ekf_obs_first"))
     two = ls.run_study((1044, 1071), workers=2, sigmas=(0.14,), methods=("ekf", "ekf_obs_first"))
     assert one == two
+
+
+def test_fej_motion_jacobians_telescope_and_ekf_slams_do_not(run10):
+    """Step 5: FEJ's A_k, multiplied across the updates between them, equal the one A built from
+    its first and last propagated poses; EKF SLAM's steps start at updated poses, so their
+    product misses the corrections. Only a filter that keeps propagated poses is accepted."""
+    from slamlib.ekf import EKFSLAM, FEJEKFSLAM
+
+    product, whole, steps = studies_ch06.motion_chain(FEJEKFSLAM, run10, t_end=15.0)
+    assert steps > 100 and abs(whole[0, 2]) + abs(whole[1, 2]) > 0.5
+    assert np.allclose(product, whole, rtol=0, atol=1e-12)
+    product, whole, _ = studies_ch06.motion_chain(LinearisedEKFSLAM, run10, t_end=15.0)
+    assert np.max(np.abs(product - whole)) > 1e-3
+    with pytest.raises(ValueError, match="filter_cls"):
+        studies_ch06.motion_chain(EKFSLAM, run10, t_end=15.0)

@@ -154,15 +154,19 @@ def t_eff(summary: dict) -> float:
     return float(var_instant / np.var([r["mean_nees"] for r in runs], ddof=1))
 
 
-def ablation_rows(doc: dict, sigma: str, methods=None) -> list[dict]:
+def ablation_rows(doc: dict, sigma: str, methods=None, instants=None) -> list[dict]:
     """One row per filter of one slip of the stored study: the Monte-Carlo average pose NEES at
-    :data:`INSTANTS` (``avg_at``) and at the end (``avg_end``), the heading's (``heading_at``,
-    ``heading_end``), the mean and median of the runs' final pose NEES, of their time means,
-    the share of runs that closed the loop and the share of gated readings rejected (pooled
-    over the runs, and the median run's)."""
+    ``instants`` (s, on the study's grid; default :data:`INSTANTS`) (``avg_at``) and at the end
+    (``avg_end``), the heading's (``heading_at``, ``heading_end``), the mean and median of the
+    runs' final pose NEES, of their time means, the share of runs that closed the loop and the
+    share of gated readings rejected (pooled over the runs, and the median run's)."""
     block = doc["studies"][sigma]
     t = np.arange(1, len(block["ekf"]["avg"]) + 1) * doc["step"]
-    at = np.searchsorted(t, doc["instants"])
+    instants = np.asarray(doc["instants"] if instants is None else instants, dtype=float)
+    at = np.searchsorted(t, instants)
+    if np.any(at >= len(t)) or not np.allclose(t[np.minimum(at, len(t) - 1)], instants):
+        raise ValueError(f"instants: expected times on the study's {doc['step']} s grid up to "
+                         f"{t[-1]} s, got {instants.tolist()}")
     rows = []
     for m in methods or block:
         s = block[m]

@@ -35,7 +35,7 @@ __all__ = ["DENSITY_EXTENT", "random_loop_run", "DensityRow", "density_sweep",
            "load_ch06_studies", "nominal_Q", "run_study", "summarise", "summary_numbers",
            "Observability", "observability", "GATE_STUDY", "GATE_METHODS", "gate_readings",
            "load_gate_study", "RobustSummary", "robust_summary", "column_summary", "gate_rates",
-           "band_shares"]
+           "band_shares", "motion_chain"]
 
 
 # --------------------------------------------------------------------------- marker density
@@ -336,6 +336,37 @@ def observability(filter_cls, run: Run, t_end: float = 20.0, options: dict | Non
     O = np.vstack(O)
     sv = np.linalg.svd(O, compute_uv=False)
     return Observability(sv / sv[0], np.array(rot), np.array(rot_init), np.array(tra), n)
+
+
+def motion_chain(filter_cls, run: Run, t_end: float = 20.0, options: dict | None = None
+                 ) -> tuple[np.ndarray, np.ndarray, int]:
+    """The robot's motion Jacobians a SLAM filter used on ``run`` up to ``t_end``, multiplied in
+    order (updates between them), and the one Jacobian of the whole interval built from the
+    filter's propagated poses (chapter 06, step 5): ``(product, whole, count)``.
+
+    ``whole`` is ``[[1, 0, -(y_b - y_a)], [0, 1, x_b - x_a], [0, 0, 1]]`` with ``a`` the
+    propagated pose before the first prediction and ``b`` after the last (``propagated_pose``,
+    :class:`slamlib.ekf.LinearisedEKFSLAM`): FEJ's product equals it to round-off, EKF SLAM's
+    does not (its steps start at updated poses).
+    """
+    filt = ex.make_filter(filter_cls, run, **(options or {}))
+    if not hasattr(filt, "propagated_pose"):
+        raise ValueError(f"filter_cls: expected a LinearisedEKFSLAM (it keeps the propagated "
+                         f"poses), got {filter_cls.__name__}")
+    product, count = [np.eye(3)], [0]
+    predict_cov = filt._predict_cov
+
+    def spy_predict(A, W):
+        product[0] = A @ product[0]              # Phi = A_k ... A_0
+        count[0] += 1
+        predict_cov(A, W)
+
+    start = np.array(filt.propagated_pose, dtype=float)
+    filt._predict_cov = spy_predict
+    ex.run_filter(run, filt, max_time=t_end)
+    d = np.asarray(filt.propagated_pose, dtype=float) - start
+    whole = np.array([[1.0, 0.0, -d[1]], [0.0, 1.0, d[0]], [0.0, 0.0, 1.0]])
+    return product[0], whole, count[0]
 
 
 def summary_numbers(summary: dict, prob: float = 0.95) -> dict:
