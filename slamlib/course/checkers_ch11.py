@@ -173,8 +173,8 @@ def check_rotation_direction(fn, n_points: int = 5, seed: int = 3, verbose: bool
     offsets = rng.normal(0.0, 0.03, (len(poses), len(lms), 2))
     one = np.linalg.norm(jacobian_along(poses, lms, v))
     own = np.linalg.norm(jacobian_along(poses, lms, v, offsets))
-    say(f"{name}: correct at {n_points} random estimates. |J v| per radian of turn:\n"
+    say(f"{name}: correct at {n_points} random estimates.\n|J v| per radian of turn:\n"
         f"  every factor at one point: {one:.1e} (unobservable);\n"
-        f"  each reading at its own landmark copy, about 3 cm off: {own:.1e} "
-        f"(the turn looks observed)")
+        f"  each reading at its own landmark copy, 3 cm off: {own:.1e}\n"
+        f"  (the turn looks observed)")
     return True
