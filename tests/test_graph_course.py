@@ -32,6 +32,66 @@ def test_checker_accepts_the_library_and_names_each_mistake(capsys):
     assert "not written yet" in capsys.readouterr().out
 
 
+def _turn(P, L):
+    # the whole estimate turned about the origin: d/da of R(a) p is (-y, x), every heading +1
+    return np.concatenate([np.column_stack([-P[:, 1], P[:, 0], np.ones(len(P))]).ravel(),
+                           np.column_stack([-L[:, 1], L[:, 0]]).ravel()])
+
+
+def test_rotation_checker_accepts_any_rigid_turn_and_names_each_mistake(capsys):
+    assert checkers_ch11.check_rotation_direction(_turn)
+    out = capsys.readouterr().out
+    assert "(unobservable)" in out and "looks observed" in out
+
+    def about_another_point(P, L):                  # a turn about (1, -2), scaled by 3
+        v = _turn(P, L)
+        n = len(P)
+        v[0:3 * n:3] += 2.0
+        v[1:3 * n:3] += 1.0
+        v[3 * n::2] += 2.0
+        v[3 * n + 1::2] += 1.0
+        return 3.0 * v
+
+    assert checkers_ch11.check_rotation_direction(about_another_point)
+    n_pose = lambda P: len(P)                       # noqa: E731
+    wrong = {
+        "landmarks do not move": lambda P, L: np.concatenate(
+            [_turn(P, L)[:3 * n_pose(P)], np.zeros(2 * len(L))]),
+        "other way": lambda P, L: np.concatenate(
+            [np.column_stack([P[:, 1], -P[:, 0], np.ones(len(P))]).ravel(),
+             np.column_stack([L[:, 1], -L[:, 0]]).ravel()]),
+        "heading component is zero": lambda P, L: np.concatenate(
+            [np.tile([1.0, 0.0, 0.0], len(P)), np.tile([1.0, 0.0], len(L))]),
+        "heading components differ": lambda P, L: _turn(P, L) * np.r_[np.arange(1, 3 * len(P) + 1),
+                                                            np.ones(2 * len(L))],
+        "factors see this direction": lambda P, L: _turn(P, L) + np.r_[
+            np.zeros(3 * len(P)), 0.3, np.zeros(2 * len(L) - 1)],
+        "expected a vector": lambda P, L: np.zeros(3),
+    }
+    for hint, fn in wrong.items():
+        capsys.readouterr()
+        assert not checkers_ch11.check_rotation_direction(fn), hint
+        assert hint in capsys.readouterr().out
+
+
+def test_jacobian_along_a_turn_vanishes_only_at_one_point():
+    # an independent check of the lesson: the finite-difference J v against the closed form
+    rng = np.random.default_rng(0)
+    P = np.column_stack([rng.uniform(-2, 2, 3), rng.uniform(-2, 2, 3), rng.uniform(-3, 3, 3)])
+    L = rng.uniform(-4, 4, (2, 2))
+    v = _turn(P, L)
+    assert np.max(np.abs(checkers_ch11.jacobian_along(P, L, v))) < 1e-7
+    offsets = rng.normal(0.0, 0.03, (3, 2, 2))
+    assert np.max(np.abs(checkers_ch11.jacobian_along(P, L, v, offsets))) > 1e-3
+    shift = np.r_[np.tile([1.0, 0.0, 0.0], 3), np.tile([1.0, 0.0], 2)]
+    assert np.max(np.abs(checkers_ch11.jacobian_along(P, L, shift, offsets))) < 1e-7
+    # a range's derivative along a pure move of one landmark: d|l - p| = u . dl
+    dl = np.r_[np.zeros(9), 1.0, 0.0, 0.0, 0.0]
+    Jv = checkers_ch11.jacobian_along(P, L, dl)
+    d = L[0] - P[0, :2]
+    assert np.isclose(Jv[6], d[0] / np.hypot(*d), atol=1e-8)
+
+
 @pytest.fixture(scope="module")
 def stored():
     return graph_study.load()
