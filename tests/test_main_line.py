@@ -1,0 +1,53 @@
+"""The chapters' main lines meet the Teach-first bar (COURSE.md), measured by tools/main_line.py."""
+
+import importlib.util
+import json
+import sys
+from pathlib import Path
+
+import pytest
+
+ROOT = Path(__file__).resolve().parents[1]
+_spec = importlib.util.spec_from_file_location("main_line", ROOT / "tools" / "main_line.py")
+main_line = importlib.util.module_from_spec(_spec)
+sys.modules["main_line"] = main_line
+_spec.loader.exec_module(main_line)
+
+CHAPTERS = sorted((ROOT / "notebooks").glob("*.ipynb"))
+
+
+def _nb(*cells):
+    return {"cells": [{"cell_type": t, "metadata": {"tags": tags}, "source": s}
+                      for t, tags, s in cells]}
+
+
+def test_folds_math_code_and_tables_are_not_main_line():
+    text = main_line.main_line_text(_nb(
+        ("markdown", [], "Words here. <details><summary>More</summary>hidden 12 34</details> "
+                         "after"),
+        ("markdown", ["evidence"], "folded evidence 99"),
+        ("markdown", ["answer"], "folded answer 98"),
+        ("code", [], "print(1)"),
+        ("markdown", [], "Math $x_1 = 2$ and $$y = 3$$ and `code 4` and\n"
+                         "| a | 5 |\n|---|---|\nend"),
+    ))
+    words = text.split()
+    assert "hidden" not in words and "folded" not in words and "print(1)" not in words
+    assert not any(ch.isdigit() for ch in text)   # every number was in math, code or folds
+    assert {"Words", "after", "Math", "end"} <= set(words)
+
+
+def test_numbers_are_counted_per_hundred_words(tmp_path):
+    p = tmp_path / "nb.ipynb"
+    p.write_text(json.dumps(_nb(("markdown", [], "one two three 4 five six seven 8.5 nine 10%"))))
+    m = main_line.measure(p)
+    assert (m.words, m.numbers) == (10, 3)
+    assert m.numbers_per_100 == pytest.approx(30.0)
+
+
+@pytest.mark.parametrize("path", CHAPTERS, ids=lambda p: p.stem)
+def test_chapter_main_line_meets_the_bar(path):
+    m = main_line.measure(path)
+    assert m.words <= main_line.MAX_WORDS, f"{path.name}: {m.words} words of main line"
+    assert m.numbers_per_100 <= main_line.MAX_NUMBERS_PER_100, (
+        f"{path.name}: {m.numbers_per_100:.1f} numbers per 100 words of main line")
