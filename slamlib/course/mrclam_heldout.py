@@ -24,7 +24,11 @@ on the data one fitted to would have reported).
 
 These are one run per robot and split (real data): no Monte-Carlo band.
 :func:`compare` pools the splits' runs to decide a component (paired
-ratios, a sign count and a seeded bootstrap interval of the median ratio).
+ratios, a sign count and a seeded bootstrap interval of the median ratio that
+resamples whole robots, :meth:`Study.compare`: a robot's runs on the four
+nested splits are not independent). The variants were compared, and
+:data:`CHOSEN` picked, on these same runs: they validate a choice, they are
+not an untouched test.
 
 The full data set is not shipped: ``make mrclam-heldout MRCLAM=/path/to/MRCLAM_Dataset6``
 (``python -m slamlib.course.mrclam_heldout /path/to/MRCLAM_Dataset6``) writes
