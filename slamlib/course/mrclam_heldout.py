@@ -24,7 +24,11 @@ on the data one fitted to would have reported).
 
 These are one run per robot and split (real data): no Monte-Carlo band.
 :func:`compare` pools the splits' runs to decide a component (paired
-ratios, a sign count and a seeded bootstrap interval of the median ratio).
+ratios, a sign count and a seeded bootstrap interval of the median ratio that
+resamples whole robots, :meth:`Study.compare`: a robot's runs on the four
+nested splits are not independent). The variants were compared, and
+:data:`CHOSEN` picked, on these same runs: they validate a choice, they are
+not an untouched test.
 
 The full data set is not shipped: ``make mrclam-heldout MRCLAM=/path/to/MRCLAM_Dataset6``
 (``python -m slamlib.course.mrclam_heldout /path/to/MRCLAM_Dataset6``) writes
@@ -37,6 +41,7 @@ bit the same on every regeneration; about 20 minutes on one core);
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import json
 import warnings
 from pathlib import Path
@@ -65,7 +70,17 @@ VARIANTS = {
     "R+outliers+Q+scale": (("R", "outliers", "Q", "scale"), 1.0),
     "R+outliers+Q+delay": (("R", "outliers", "Q", "delay"), 1.0),
     "R+outliers+Q+scale+delay": (("R", "outliers", "Q", "scale", "delay"), 1.0),
+    "R+outliers+Q per step": (("R", "outliers", "Q"), 1.0),
+    "R+outliers+Q+scale, Q as logged": (("R", "outliers", "Q", "scale"), 1.0),
+    "R+outliers+Q+delay, Q as logged": (("R", "outliers", "Q", "delay"), 1.0),
 }
+#: Variants that change the identified calibration after :func:`identify` (the confounds'
+#: controls): "per step" uses the identified size of Q as a FIXED per-step covariance
+#: ``Q_c / dt_med`` (``dt_med`` the teaching logs' median step), not a density; "Q as logged"
+#: keeps the command correction but fits Q's density on the commands as logged (``identify``
+#: fits it on the corrected commands, so adding scale or delay also changes Q).
+PER_STEP = ("R+outliers+Q per step",)
+Q_AS_LOGGED = ("R+outliers+Q+scale, Q as logged", "R+outliers+Q+delay, Q as logged")
 #: The model the held-out evidence kept (identify.KEPT), and the one with every component.
 CHOSEN = "R+outliers+Q"
 EVERYTHING = "R+outliers+Q+scale+delay"
@@ -118,11 +133,31 @@ def split_parts(split: str, logs: dict, excerpt: dict | None = None) -> tuple[di
     return fit, held
 
 
-def _judge(folder, robot: int, cal: identify.Calibration, span) -> float:
+def _judge(folder, robot: int, cal: identify.Calibration, span, q_step_dt=None) -> float:
+    """Held-out ATE of ``robot`` over ``span`` with ``cal`` (its Q density as a fixed
+    per-step ``Q_c / q_step_dt`` if ``q_step_dt`` is given)."""
     with warnings.catch_warnings():
         warnings.simplefilter("ignore", mrclam.MRCLAMWarning)
-        log = mrclam.load(folder, robot, calibration=cal)
+        if q_step_dt is None:
+            log = mrclam.load(folder, robot, calibration=cal)
+        else:
+            if cal.command_scale is not None or cal.command_delay is not None:
+                raise ValueError("cal: a per-step Q variant expects no command correction")
+            noise = cal.noise(mrclam.DEFAULT_WHEEL_BASE)
+            noise["Q"] = np.asarray(noise.pop("Q_density")) / float(q_step_dt)
+            log = mrclam.load(folder, robot, noise=noise)
     return float(mrclam.slam(log.between(*span)).metrics()["ate_xy"])
+
+
+def _calibrate(name: str, fit_logs) -> tuple[identify.Calibration, float | None]:
+    """The variant's calibration from ``fit_logs``, and its per-step dt (PER_STEP only)."""
+    comps, window = VARIANTS[name]
+    cal = identify.identify(fit_logs, comps, window=window)
+    if name in Q_AS_LOGGED:
+        cal = dataclasses.replace(cal, q_density=identify.noise_density(fit_logs, window))
+    dt = (float(np.median(np.concatenate([np.diff(lg.enc_t) for lg in fit_logs])))
+          if name in PER_STEP else None)
+    return cal, dt
 
 
 def run_split(split: str, folder, logs: dict, excerpt: dict | None = None,
@@ -131,11 +166,10 @@ def run_split(split: str, folder, logs: dict, excerpt: dict | None = None,
     fit, held = split_parts(split, logs, excerpt)
     rows: dict = {}
     for name in variants:
-        comps, window = VARIANTS[name]
         ate, cals = [], {}
         for r in robots:
-            cal = identify.identify(fit[r], comps, window=window)
-            ate.append(_r(_judge(folder, r, cal, held[r])))
+            cal, dt = _calibrate(name, fit[r])
+            ate.append(_r(_judge(folder, r, cal, held[r], dt)))
             cals[r] = cal
         row = {"ate": ate}
         if name in (CHOSEN, EVERYTHING):
@@ -163,6 +197,35 @@ def _rounded(d):
     return d
 
 
+def _whiteness_dict(wh: identify.Whiteness) -> dict:
+    return {k: [_r(v) for v in getattr(wh, k)] for k in
+            ("windows", "n", "q_v", "q_w", "corr_v", "corr_w")}
+
+
+def checks(full: dict, excerpt: dict) -> dict:
+    """Two measurements of the full data set that chapter 10 quotes beside the excerpt's.
+
+    ``whiteness``: :func:`identify.whiteness` of the five full logs pooled, commands as
+    logged and scaled and delayed (fitted on the same logs). ``excerpt_span_full_vicon``:
+    the reading noise of the excerpt's time span (each robot's first 200 s) read from
+    the full download, every Vicon sample kept: is the excerpt's outlier share a
+    property of its thinned Vicon or of its period?
+    """
+    fit = identify.fit_commands(full.values())
+    spans = [full[r].between(excerpt[r].enc_t[0], excerpt[r].enc_t[-1]) for r in mrclam.ROBOTS]
+    out = {}
+    for name, logs in (("excerpt", list(excerpt.values())), ("excerpt_span_full_vicon", spans),
+                       ("full", list(full.values()))):
+        res = identify.ReadingResiduals.concatenate(identify.reading_residuals(lg) for lg in logs)
+        rn = identify.fit_reading_noise(res)
+        out[name] = {"readings": int(rn.outlier.size), "outliers": int(rn.outlier.sum()),
+                     **{k: _r(v) for k, v in rn.params().items()}}
+    return {"whiteness": {"as logged": _whiteness_dict(identify.whiteness(full.values())),
+                          "scaled and delayed": _whiteness_dict(
+                              identify.whiteness(full.values(), commands=fit))},
+            "reading_noise": out}
+
+
 def study(full_folder, excerpt_folder=mrclam.EXCERPT_DIR, splits=tuple(SPLITS)) -> dict:
     """Every split (the full data set's from ``full_folder``)."""
     excerpt = load_logs(excerpt_folder)
@@ -177,6 +240,7 @@ def study(full_folder, excerpt_folder=mrclam.EXCERPT_DIR, splits=tuple(SPLITS)) 
             "full": Path(full_folder).name,
             "variants": {k: {"components": list(v[0]), "window": v[1]}
                          for k, v in VARIANTS.items()},
+            "checks": checks(full, excerpt) if full is not None else None,
             "splits": out}
 
 
@@ -195,23 +259,31 @@ def save(data: dict, path=STUDY_FILE) -> None:
     path.write_text("\n".join(lines) + "\n", encoding="utf-8")
 
 
-def compare(runs_a, runs_b, seed: int = 22, n_boot: int = 4000) -> dict:
+def compare(runs_a, runs_b, seed: int = 22, n_boot: int = 4000, clusters=None) -> dict:
     """Paired comparison of two variants' held-out ATEs (same runs, in the same order).
 
     Returns how many runs ``a`` is better and worse on, the median of the ratios
-    ``a / b`` and its 90 % bootstrap interval (resampling the runs, seeded).
+    ``a / b`` and its 90 % bootstrap interval (seeded). The bootstrap resamples
+    whole **clusters** with replacement (``clusters``: one label per run, e.g. the
+    robot, so that a robot's runs on several splits are drawn together: they are
+    not independent); without ``clusters`` every run is its own cluster.
     """
     a, b = np.asarray(runs_a, dtype=float), np.asarray(runs_b, dtype=float)
     if a.shape != b.shape or a.ndim != 1 or a.size == 0:
         raise ValueError(f"runs_a, runs_b: expected two equal-length lists, got {a.shape} and "
                          f"{b.shape}")
+    lab = np.arange(a.size) if clusters is None else np.asarray(clusters)
+    if lab.shape != a.shape:
+        raise ValueError(f"clusters: expected one label per run ({a.size}), got {lab.shape}")
     lr = np.log(a / b)
+    groups = [lr[lab == g] for g in dict.fromkeys(lab.tolist())]
     rng = np.random.default_rng(seed)
-    boot = np.median(lr[rng.integers(0, lr.size, (n_boot, lr.size))], axis=1)
+    draws = rng.integers(0, len(groups), (n_boot, len(groups)))
+    boot = np.array([np.median(np.concatenate([groups[j] for j in d])) for d in draws])
     lo, hi = np.percentile(boot, [5.0, 95.0])
-    return {"n": int(lr.size), "better": int(np.sum(lr < 0)), "worse": int(np.sum(lr > 0)),
-            "ratio": float(np.exp(np.median(lr))), "low": float(np.exp(lo)),
-            "high": float(np.exp(hi))}
+    return {"n": int(lr.size), "clusters": len(groups), "better": int(np.sum(lr < 0)),
+            "worse": int(np.sum(lr > 0)), "ratio": float(np.exp(np.median(lr))),
+            "low": float(np.exp(lo)), "high": float(np.exp(hi))}
 
 
 class Study:
@@ -234,6 +306,30 @@ class Study:
     def runs(self, variant: str, splits=None) -> np.ndarray:
         """The held-out ATEs of every robot and split, pooled (split by split, robot order)."""
         return np.concatenate([self.ate(s, variant) for s in (splits or self.splits)])
+
+    def robots_of_runs(self, splits=None) -> np.ndarray:
+        """The robot of each pooled run (:meth:`runs`' order): the bootstrap's clusters."""
+        return np.concatenate([self.data["splits"][s]["robots"] for s in (splits or self.splits)])
+
+    def compare(self, a: str, b: str, by: str = "robot", splits=None) -> dict:
+        """:func:`compare` of variants ``a`` and ``b`` pooled over the splits, resampling
+        whole robots (``by="robot"``, the default) or single runs (``by="run"``)."""
+        if by not in ("robot", "run"):
+            raise ValueError(f"by: expected 'robot' or 'run', got {by!r}")
+        return compare(self.runs(a, splits), self.runs(b, splits),
+                       clusters=self.robots_of_runs(splits) if by == "robot" else None)
+
+    def ratios(self, a: str, b: str, splits=None) -> str:
+        """The ratio ``ATE(a) / ATE(b)`` per robot (rows) and split (columns)."""
+        splits = splits or self.splits
+        robots = self.data["splits"][splits[0]]["robots"]
+        lines = ["robot" + "".join(f"{s:>15s}" for s in splits)]
+        for i, r in enumerate(robots):
+            lines.append(f"{r:5d}" + "".join(f"{self.ate(s, a)[i] / self.ate(s, b)[i]:15.2f}"
+                                             for s in splits))
+        lines.append("median" + "".join(
+            f"{np.median(self.ate(s, a) / self.ate(s, b)):14.2f} " for s in splits))
+        return "\n".join(lines)
 
     def table(self, variants, splits=None) -> str:
         """Median held-out ATE per split, and robots better than the textbook noise."""

@@ -147,26 +147,28 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     return axes
 
 def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
-    """Top view of Vicon and SLAM estimates, and the position error against time."""
+    """Top view of Vicon and SLAM estimates (squares: surveyed landmarks, +: each filter's
+    mapped ones), and the position error against time with each filter's own 2 sigma."""
 
     a0, a1 = axes
     plots.world_axes(a0, log.world(), margin=0.2)
     a0.plot(log.truth[:, 0], log.truth[:, 1], "k", lw=1.6, label="Vicon")
     pos = log.world().positions
-    a0.plot(pos[:, 0], pos[:, 1], "ks", ms=4)
+    a0.plot(pos[:, 0], pos[:, 1], "ks", ms=4, label="landmarks (surveyed)")
     for (name, tr), c in zip(traces.items(), colors):
         a0.plot(tr.x[:, 0], tr.x[:, 1], color=c, lw=1, label=name)
         lm = tr.filter.landmarks
         if lm:
             p = np.array(list(lm.values()))
-            a0.plot(p[:, 0], p[:, 1], "+", color=c, ms=7)
+            a0.plot(p[:, 0], p[:, 1], "+", color=c, ms=8, mew=1.5,
+                    label=f"landmarks mapped, {name}")
         e = np.hypot(*tr.error[:, :2].T)
-        a1.plot(tr.t - tr.t[0], e, color=c, lw=1, label=name)
-        a1.plot(tr.t - tr.t[0], 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), color=c, lw=0.8,
-                ls=":")
-    a0.legend(fontsize=8, loc="upper right")
+        a1.plot(tr.t - tr.t[0], e, color=c, lw=1, label=f"{name}: error")
+        a1.plot(tr.t - tr.t[0], 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), color=c, lw=1.0,
+                ls=":", label=f"{name}: its own 2 sigma")
+    a0.legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.1), ncol=2)
     a1.set_xlabel("time (s)")
-    a1.set_ylabel("position error (m); dotted: 2 sigma")
+    a1.set_ylabel("position error (m)")
     a1.legend(fontsize=8)
     a1.grid(True, lw=0.4, alpha=0.5)
     return axes
