@@ -17,7 +17,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ekf import predict_readings
+from ..models import observe_landmarks
 from .harness import attempt, name_of, printer
 
 __all__ = ["check_joint_distance", "joint_distance_cases"]
@@ -47,7 +47,7 @@ def joint_distance_cases(n: int = 8, seed: int = 9):
         Ppose = np.diag([0.15, 0.15, 0.05]) ** 2
         P = P + J @ Ppose @ J.T
         which = rng.permutation(N)[:m]
-        _, Hp, Hl = predict_readings(pose, L[which])
+        _, Hp, Hl = observe_landmarks(pose, L[which])
         H = np.zeros((2 * m, nstate))
         for q, j in enumerate(which):
             H[2 * q:2 * q + 2, :3] = Hp[q]
