@@ -253,12 +253,9 @@ def gate_threshold(gate: float | None, dof: int = 2) -> float:
 
 
 def _check_gate(gate, name: str = "gate", none: bool = True):
-    """A probability in (0, 1), or None when ``none`` (no gating: only with ids)."""
+    """A probability in (0, 1), or None (no gating) when ``none``."""
     if gate is None and none:
         return None
-    if gate is None:
-        raise ValueError(f"{name}: expected a probability in (0, 1), not None (readings "
-                         f"without ids need a gate, or every reading would match)")
     g = as_finite_scalar(name, gate)
     if not 0.0 < g < 1.0:
         raise ValueError(f"{name}: expected a probability in (0, 1){' or None' * none}, got {g}")
@@ -438,8 +435,11 @@ class EKFLocalization:
 
     @gate.setter
     def gate(self, value) -> None:
-        g = _check_gate(value, none=self._association == "ids")
-        self._gate, self._threshold = g, gate_threshold(g)
+        if value is None and self._association != "ids":
+            raise ValueError(f"gate: association={self._association!r} needs a gate probability "
+                             f"(e.g. 0.95), not None: without it every reading would match")
+        self._gate = _check_gate(value)
+        self._threshold = gate_threshold(self._gate)
 
     @property
     def threshold(self) -> float:

@@ -285,13 +285,6 @@ class AnalyticMarkerSensor:
         rho = as_finite_scalar("rho", rho)
         return np.diag([float(self.sigma_range(max(rho, 0.0))) ** 2, self.sigma_bearing ** 2])
 
-    @property
-    def R_always_positive_definite(self) -> bool:
-        """True when every :meth:`R` is positive definite: it is diagonal with variances of at
-        least ``sigma_range0^2`` and ``sigma_bearing^2``, so both sigmas positive suffice (the
-        runners then skip checking each frame's R)."""
-        return self.sigma_range0 > 0.0 and self.sigma_bearing > 0.0
-
     def R_batch(self, rho) -> np.ndarray:
         """:meth:`R` of each range in ``rho`` (shape (k,)), stacked: shape (k, 2, 2)."""
         rho = np.asarray(rho, dtype=float).reshape(-1)
@@ -300,7 +293,8 @@ class AnalyticMarkerSensor:
         out = np.zeros((rho.size, 2, 2))
         # the same operations as R, element by element (x ** 2 is x * x, correctly rounded)
         s = self.sigma_range(np.maximum(rho, 0.0))
-        out[:, 0, 0] = s * s
+        with np.errstate(over="ignore"):        # an absurd range: inf, which the filter refuses
+            out[:, 0, 0] = s * s
         out[:, 1, 1] = self.sigma_bearing ** 2
         return out
 

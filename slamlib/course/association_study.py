@@ -72,7 +72,7 @@ def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: flo
     if not confirmed:
         return runner.make_filter(EKFSLAM, run, gate=gate, association=association)
     return runner.make_filter(ConfirmedSLAM, run, gate=gate, association=association,
-                          n_confirm=n_confirm)
+                              n_confirm=n_confirm)
 
 
 def run_without_ids(run: Run, filt, *, max_time: float | None = None,

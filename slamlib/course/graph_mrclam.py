@@ -111,7 +111,7 @@ def robot_traces(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None,
         i = graph.smooth(log, "isam2", max_steps=MAX_STEPS)
         out["isam2"] = i
         out["isam2_online"] = runner.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P,
-                                       truth=i.truth, filter=i.filter)
+                                           truth=i.truth, filter=i.filter)
     if "batch" in estimates:
         out["batch"] = graph.smooth(log, "batch", max_steps=MAX_STEPS)
     for k in ("huber", "cauchy"):
@@ -227,8 +227,8 @@ def _cost_split(g: gtsam.NonlinearFactorGraph, values: gtsam.Values
     return float(np.sum(odo)), rb, float(np.median(odo)) if odo else 0.0
 
 
-def solver_check(batch: graph.GraphTrace, log: mrclam.Log, online: runner.Trace | None = None
-                 ) -> dict:
+def solver_check(batch: graph.GraphTrace, log: mrclam.Log,
+                 online: runner.Trace | None = None) -> dict:
     """Is the batch solution the optimum of its graph, and how does Vicon's trajectory fit it?
 
     Levenberg-Marquardt is restarted from Vicon (every pose; the landmarks at Vicon's
