@@ -66,7 +66,8 @@ STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
 #: The association methods (chapter 09; ``"ids"`` is chapters 03-05's look-up).
 ASSOCIATIONS = ("ids", "nn", "jcbb")
 #: r: the robot's entries of the state.
-ROBOT = slice(0, 3)
+ROBOT, ROBOT_IDX = slice(0, 3), np.arange(3)
+_ONES3 = np.ones(3)
 
 
 # --------------------------------------------------------------------------- the steps
@@ -95,7 +96,7 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q:
     r, m = ROBOT, slice(3, None)
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
     P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # P_rr = A P_rr A' + W Q W'
-    if not math.isfinite(x_r.sum() + P_rr.trace()):       # (P_rm overflows only if P_rr does)
+    if not math.isfinite(x_r @ _ONES3 + P_rr.trace()):    # (P_rm overflows only if P_rr does)
         raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
     x[r] = x_r
     P[r, m] = A @ P[r, m]                                 # P_rm = A P_rm
@@ -114,7 +115,10 @@ def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
 def block_diagonal(blocks: np.ndarray) -> np.ndarray:
     """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2)."""
     m = blocks.shape[0]
-    return np.einsum("jab,jk->jakb", blocks, np.eye(m)).reshape(2 * m, 2 * m)
+    out = np.zeros((2 * m, 2 * m))
+    j = np.arange(m)
+    out.reshape(m, 2, m, 2)[j, :, j] = blocks
+    return out
 
 
 def stacked_jacobian(slots: np.ndarray, H_pose: np.ndarray, H_landmark: np.ndarray
@@ -133,11 +137,13 @@ def stacked_jacobian(slots: np.ndarray, H_pose: np.ndarray, H_landmark: np.ndarr
     (idx, H) : numpy.ndarray (c,) of int and (2m, c)
     """
     m = slots.shape[0]
-    H_r = H_pose.reshape(2 * m, 3)                          # d h_j / d x_r
     if m == 0 or slots[0] < 0:
-        return np.arange(3), H_r
-    idx = np.concatenate([np.arange(3), np.column_stack([slots, slots + 1]).ravel()])
-    return idx, np.hstack([H_r, block_diagonal(H_landmark)])  # [d h_j / d x_r, d h_j / d x_lj]
+        return ROBOT_IDX, H_pose.reshape(2 * m, 3)
+    idx = np.concatenate((ROBOT_IDX, (slots[:, None] + (0, 1)).ravel()))
+    H = np.zeros((2 * m, 3 + 2 * m))
+    H[:, :3] = H_pose.reshape(2 * m, 3)                     # d h_j / d x_r
+    H[:, 3:] = block_diagonal(H_landmark)                   # d h_j / d x_lj
+    return idx, H
 
 
 def innovation_covariance(P: np.ndarray, idx: np.ndarray, H: np.ndarray, R: np.ndarray
@@ -168,7 +174,9 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple[np.ndarray, np
     m = y.shape[0]
     j = np.arange(m)
     S_i = S.reshape(m, 2, m, 2)[j, :, j, :]                 # S_i = H_i P H_i' + R_i
-    d2 = np.einsum("ja,ja->j", y, np.linalg.solve(S_i, y[:, :, None])[:, :, 0])  # y' S^-1 y
+    a, b, c = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]      # S_i^-1 = [[c, -b], [-b, a]] / det
+    y0, y1 = y[:, 0], y[:, 1]
+    d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / (a * c - b * b)  # d2 = y' S_i^-1 y
     return d2, S_i
 
 
@@ -207,9 +215,9 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
         not finite. In both cases nothing changes.
     """
     L = np.linalg.cholesky(S)                               # S = L L'
-    Wv = np.linalg.solve(L, np.column_stack([PHt.T, y]))    # L^-1 [H P, y]
+    Wv = np.linalg.solve(L, np.concatenate((PHt.T, y[:, None]), axis=1))   # L^-1 [H P, y]
     W, v = Wv[:, :-1], Wv[:, -1]                            # K = P H' S^-1 = W' L^-1
-    if not math.isfinite(np.einsum("ij,ij->", Wv, Wv)):     # (then K y and K S K' are finite)
+    if not math.isfinite(np.vdot(Wv, Wv)):                  # (then K y and K S K' are finite)
         raise _not_finite("z", "the readings move the state by a non-finite amount")
     x += W.T @ v                                            # x = x + K y = x + W' L^-1 y
     x[2] = wrap(x[2])                                       # (the heading back to [-pi, pi))
@@ -360,13 +368,22 @@ def _report(fields: dict, joint_nis: float) -> UpdateReport:
     return UpdateReport(**{**fields, "status": tuple(fields["status"])}, joint_nis=joint_nis)
 
 
-def _nan_report(ids, z, status, threshold, gate, matched=None) -> dict:
+def _fields(ids, z, status, gate, threshold, g=None, d2=None, y=None, h=None, S=None,
+            accepted=None, matched=None) -> dict:
+    """The report's fields of k readings, the gated ones ``g`` filled in (NaN elsewhere)."""
     k = len(status)
-    return dict(ids=ids, z=z, status=status, accepted=np.zeros(k, dtype=bool),
-                new=np.zeros(k, dtype=bool), d2=np.full(k, np.nan),
-                innovation=np.full((k, 2), np.nan), predicted=np.full((k, 2), np.nan),
-                S=np.full((k, 2, 2), np.nan), threshold=threshold, gate=gate,
-                matched_ids=matched)
+    if g is not None and g.size == k:                        # the usual frame: all gated
+        fields = dict(d2=d2, innovation=y, predicted=h, S=S, accepted=accepted)
+    else:
+        fields = dict(d2=np.full(k, np.nan), innovation=np.full((k, 2), np.nan),
+                      predicted=np.full((k, 2), np.nan), S=np.full((k, 2, 2), np.nan),
+                      accepted=np.zeros(k, dtype=bool))
+        if g is not None:
+            for name, v in zip(("d2", "innovation", "predicted", "S", "accepted"),
+                               (d2, y, h, S, accepted)):
+                fields[name][g] = v
+    return dict(ids=ids, z=z, status=status, new=np.array([s == "new" for s in status], bool),
+                threshold=threshold, gate=gate, matched_ids=matched, **fields)
 
 
 # --------------------------------------------------------------------------- the filters
@@ -471,7 +488,7 @@ class EKFLocalization:
         if not self._can_add:
             return np.array([self._map[int(i)] for i in ids]).reshape(-1, 2)
         s = np.array([self._slot[int(i)] for i in ids], dtype=np.int64)
-        return self._x[np.column_stack([s, s + 1])].reshape(-1, 2)
+        return self._x[s[:, None] + (0, 1)]
 
     # ------------------------------------------------------------------ the hooks
     def reading_model(self, pose: np.ndarray, positions: np.ndarray
@@ -522,16 +539,13 @@ class EKFLocalization:
         """Prediction with the wheel speeds ``u = [V_R, V_L]`` over ``dt`` (chapter 01):
         :func:`predict` with the Jacobians of :meth:`jacobians`."""
         u, dt = _check_control(u, dt)
-        size = (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / self._wheel_base
-        if size < 1e100:                           # the usual case: nothing can overflow
-            return self._predict(u, dt)
-        with np.errstate(all="ignore"):            # an overflow is refused, without a warning
-            return self._predict(u, dt)
-
-    def _predict(self, u: np.ndarray, dt: float) -> None:
-        n = self._n
         A, W = self.jacobians("motion", u=u, dt=dt)
-        predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, self._Q, A, W)
+        n, b = self._n, self._wheel_base
+        step = (self._x[:n], self._P[:n, :n], u, dt, b, self._Q, A, W)
+        if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
+            return predict(*step)                  # the usual case: nothing can overflow
+        with np.errstate(all="ignore"):            # an overflow is refused, without a warning
+            return predict(*step)
 
     # ------------------------------------------------------------------ update
     def update(self, ids, z, R=None) -> UpdateReport:
@@ -600,29 +614,25 @@ class EKFLocalization:
                 status[i] = ("unknown" if not self._can_add else
                              "duplicate" if mid in seen else "new")
                 seen.add(mid)
-        fields = _nan_report(ids, z, status, self._threshold, self._gate)
-        fields["new"] = np.array([s == "new" for s in status], dtype=bool)
         g = np.array([i for i in range(k) if slots[i] is not None], dtype=np.int64)
+        if g.size:
+            h, Hp, Hl = self.jacobians("observation", ids=ids[g])    # h(x), H at the prior
+            ok = np.isfinite(h[:, 1])
+            if not ok.all():                                    # a landmark on the robot
+                for i in g[~ok]:
+                    status[i] = "degenerate"
+                g, h, Hp, Hl = g[ok], h[ok], Hp[ok], Hl[ok]
         if g.size == 0:
-            return fields, None
-        h, Hp, Hl = self.jacobians("observation", ids=ids[g])    # h(x), H at the prior
-        ok = np.isfinite(h[:, 1])
-        if not ok.all():                                        # a landmark on the robot
-            for i in g[~ok]:
-                status[i] = "degenerate"
-            g, h, Hp, Hl = g[ok], h[ok], Hp[ok], Hl[ok]
-            if g.size == 0:
-                return fields, None
+            return _fields(ids, z, status, self._gate, self._threshold), None
         y = innovation(z[g], h)                                 # y = z - h(x)
         idx, H = stacked_jacobian(np.array([slots[i] for i in g]), Hp, Hl)
         PHt, S = innovation_covariance(self._P[:self._n, :self._n], idx, H,
                                        block_diagonal(R[g]))
         d2, S_i = gate(y, S, self._threshold)
         acc = d2 < self._threshold if self._gate is not None else np.ones(g.size, dtype=bool)
-        fields["d2"][g], fields["innovation"][g], fields["predicted"][g] = d2, y, h
-        fields["S"][g], fields["accepted"][g] = S_i, acc
         for i, a in zip(g.tolist(), acc.tolist()):
             status[i] = "accepted" if a else "rejected"
+        fields = _fields(ids, z, status, self._gate, self._threshold, g, d2, y, h, S_i, acc)
         return fields, (PHt, S, y, acc) if acc.any() else None
 
     def _fuse(self, PHt: np.ndarray, S: np.ndarray, y: np.ndarray, acc: np.ndarray) -> float:
@@ -681,8 +691,8 @@ class EKFLocalization:
         z = as_readings(z, k)
         R = as_reading_covariances(R, self._R, k)
         keys = np.array(self.landmark_ids if self._can_add else list(self._map), dtype=np.int64)
-        fields = _nan_report(np.full(k, -1, dtype=np.int64), z, ["rejected"] * k,
-                             self._threshold, self._gate, np.full(k, -1, dtype=np.int64))
+        fields = _fields(np.full(k, -1, dtype=np.int64), z, ["rejected"] * k, self._gate,
+                         self._threshold, matched=np.full(k, -1, dtype=np.int64))
         self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None,
                                  "d2": np.full((k, keys.size), np.nan)}
         outside, pairs = np.ones(k, dtype=bool), None

@@ -397,11 +397,14 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
     q = dx * dx + dy * dy
     if not q.all():                                         # a landmark on the robot: no bearing
         r, beta, q = (np.where(q > 0.0, v, np.nan) for v in (r, beta, q))
-    H_landmark = np.stack([dx / r, dy / r, -dy / q, dx / q], axis=1).reshape(-1, 2, 2)
-    H_pose = np.empty((L.shape[0], 2, 3))
+    k = L.shape[0]
+    h, H_landmark, H_pose = np.empty((k, 2)), np.empty((k, 2, 2)), np.empty((k, 2, 3))
+    h[:, 0], h[:, 1] = r, beta
+    H_landmark[:, 0, 0], H_landmark[:, 0, 1] = dx / r, dy / r         # d rho / d x_F
+    H_landmark[:, 1, 0], H_landmark[:, 1, 1] = -dy / q, dx / q        # d beta / d x_F
     H_pose[:, :, :2] = -H_landmark                          # H_pose = [-H_landmark, [0; -1]]
     H_pose[:, 0, 2], H_pose[:, 1, 2] = 0.0, -1.0
-    return np.column_stack([r, beta]), H_pose, H_landmark
+    return h, H_pose, H_landmark
 
 
 # --------------------------------------------------------------------------- inverse observation
