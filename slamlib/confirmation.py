@@ -33,12 +33,11 @@ clutter reading never enters the map.
 from __future__ import annotations
 
 import dataclasses
-import numbers
 
 import numpy as np
 
 from . import runner
-from .ekf import EKFSLAM, UpdateReport, gate_threshold, landmark_covariance
+from .ekf import EKFSLAM, UpdateReport, gate_threshold, integer_at_least, landmark_covariance
 from .metrics import mahalanobis2
 from .models import KOBUKI_WHEEL_BASE
 from .runs import Run
@@ -68,13 +67,6 @@ class Candidate:
     frame: int
 
 
-def _positive_int(name, value, minimum):
-    integral = isinstance(value, (numbers.Integral, np.integer))
-    if isinstance(value, (bool, np.bool_)) or not integral or value < minimum:
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 class ConfirmedSLAM(EKFSLAM):
     """EKF SLAM in which a new id waits as a candidate until ``n_confirm`` consistent sightings.
 
@@ -96,8 +88,8 @@ class ConfirmedSLAM(EKFSLAM):
                  max_gap: int = 2, confirm: float = 0.95, association: str = "ids"):
         super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity,
                          association=association)
-        self.n_confirm = _positive_int("n_confirm", n_confirm, 1)
-        self.max_gap = _positive_int("max_gap", max_gap, 1)
+        self.n_confirm = integer_at_least("n_confirm", n_confirm, 1)
+        self.max_gap = integer_at_least("max_gap", max_gap, 1)
         if not 0.0 < confirm < 1.0:
             raise ValueError(f"confirm: expected a probability in (0, 1), got {confirm!r}")
         self.confirm_threshold = gate_threshold(confirm)

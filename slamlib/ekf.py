@@ -73,25 +73,14 @@ _ONES3 = np.ones(3)
 # --------------------------------------------------------------------------- the steps
 def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q: np.ndarray,
             A: np.ndarray, W: np.ndarray) -> None:
-    """One EKF prediction on the blocks of the state, in place (chapters 01, 05).
+    """One EKF prediction of the state ``x`` (n,) and ``P`` (n, n), in place (chapters 01, 05).
 
     The dense ``P = F P F' + F_w Q F_w'`` with ``F = blkdiag(A, I)``, ``F_w = [W; 0]``
-    touches only the robot's rows and columns: the landmarks do not move.
-
-    Parameters
-    ----------
-    x, P : numpy.ndarray, shapes (n,), (n, n)
-        The state and its covariance (changed in place).
-    u, dt, b : the wheel speeds ``[V_R, V_L]``, the step (s) and the wheel base.
-    Q : numpy.ndarray (2, 2)
-        Covariance of ``u``.
-    A, W : numpy.ndarray (3, 3), (3, 2)
-        The motion Jacobians where the filter linearises (:meth:`EKFSLAM.jacobians`).
-
-    Raises
-    ------
-    ValueError
-        Naming ``u`` and ``dt`` when the result is not finite (an overflow); nothing changes.
+    touches only the robot's rows and columns: the landmarks do not move. ``u``,
+    ``dt``, ``b``: the wheel speeds ``[V_R, V_L]``, the step (s), the wheel base; ``Q``
+    the covariance of u; ``A``, ``W`` the motion Jacobians where the filter
+    linearises (:meth:`EKFLocalization.jacobians`). A result that is not finite (an
+    overflow) raises a ValueError naming ``u`` and ``dt``, and changes nothing.
     """
     r, m = ROBOT, slice(3, None)
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
@@ -162,14 +151,10 @@ def innovation_covariance(P: np.ndarray, idx: np.ndarray, H: np.ndarray, R: np.n
 def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
     """Each of m readings gated on its own against the prior (report eq. (6), chapter 05).
 
-    ``S_i = H_i P H_i' + R_i`` is the i-th 2x2 block on the diagonal of the
-    joint ``S``; ``d2_i = y_i' S_i^-1 y_i`` is chi-square with 2 degrees of freedom
-    for a right reading, which is accepted when ``d2_i < threshold``
-    (:func:`gate_threshold`). The report writes ``y - h`` inside: ``y`` is meant.
-
-    Returns
-    -------
-    (d2, S_i) : numpy.ndarray (m,) and (m, 2, 2)
+    ``S_i = H_i P H_i' + R_i`` is the i-th 2x2 block on the diagonal of the joint
+    ``S``; ``d2_i = y_i' S_i^-1 y_i`` is chi-square with 2 degrees of freedom for a
+    right reading, accepted when ``d2_i < threshold`` (:func:`gate_threshold`; the
+    report writes ``y - h`` inside: ``y`` is meant). Returns ``d2`` (m,) and ``S_i``.
     """
     m = y.shape[0]
     j = np.arange(m)
@@ -188,31 +173,14 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
                  y: np.ndarray) -> float:
     """One joint EKF update with m readings stacked, in place (report V.C, chapters 03, 05).
 
-    With ``S = L L'`` (Cholesky) and ``W = L^-1 H P``, the gain is ``K = W' L^-1``, so
-    ``K y = W' L^-1 y`` and ``K S K' = W' W``: the covariance loses a rank-2m term,
-    which is subtracted in blocks of rows of P, one read and one write of each
-    entry, O(n^2 m), no n x n temporary. (This is the Joseph form
-    ``(I - K H) P (I - K H)' + K R K'`` at the optimal gain.)
-
-    Parameters
-    ----------
-    x, P : numpy.ndarray, shapes (n,), (n, n)
-        The prior (changed in place); ``x[2]`` is the heading.
-    PHt, S : numpy.ndarray, shapes (n, 2m), (2m, 2m)
-        From :func:`innovation_covariance`.
-    y : numpy.ndarray (2m,)
-        The innovations ``z - h(x)``, bearings wrapped, stacked.
-
-    Returns
-    -------
-    float
-        The joint NIS ``y' S^-1 y`` (2m degrees of freedom).
-
-    Raises
-    ------
-    numpy.linalg.LinAlgError
-        If S is not positive definite; ValueError (naming ``z``) if the result is
-        not finite. In both cases nothing changes.
+    ``x``, ``P`` the prior (n,), (n, n), ``x[2]`` the heading; ``PHt``, ``S`` from
+    :func:`innovation_covariance`; ``y`` (2m,) the innovations, stacked. With
+    ``S = L L'`` (Cholesky) and ``W = L^-1 H P`` the gain is ``K = W' L^-1``, so
+    ``K y = W' L^-1 y`` and ``K S K' = W' W``: P loses a rank-2m term, subtracted in
+    blocks of rows, one read and one write of each entry, O(n^2 m) (the Joseph form
+    ``(I - K H) P (I - K H)' + K R K'`` at the optimal gain). Returns the joint NIS
+    ``y' S^-1 y`` (2m degrees of freedom). An S that is not positive definite
+    (LinAlgError) or a result that is not finite (ValueError naming ``z``) changes nothing.
     """
     L = np.linalg.cholesky(S)                               # S = L L'
     Wv = np.linalg.solve(L, np.concatenate((PHt.T, y[:, None]), axis=1))   # L^-1 [H P, y]
@@ -241,7 +209,7 @@ def augment(x: np.ndarray, P: np.ndarray, n: int, m: np.ndarray, J1: np.ndarray,
     ``x`` and ``P`` are the filter's storage, larger than the state's n
     entries; the landmark goes to ``l = (n, n + 1)``. ``m = g(x_r, z)`` and
     ``J1 = dg/dx_r``, ``J2 = dg/dz`` where the filter linearises
-    (:meth:`EKFSLAM.jacobians`). The new landmark is correlated with the robot and,
+    (:meth:`EKFLocalization.jacobians`). The new landmark is correlated with the robot and,
     through it, with every landmark already mapped; the old block of P is untouched.
     """
     r, l, a = ROBOT, slice(n, n + 2), slice(0, n)
@@ -270,10 +238,11 @@ def _check_gate(gate, name: str = "gate", none: bool = True):
     return g
 
 
-def _check_max_nodes(value) -> int:
+def integer_at_least(name: str, value, minimum: int) -> int:
+    """``value`` as an int >= ``minimum`` (not a bool), or a ValueError naming it."""
     if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (numbers.Integral, np.integer)) or value < 1:
-        raise ValueError(f"max_nodes: expected an integer >= 1, got {value!r}")
+            value, (numbers.Integral, np.integer)) or value < minimum:
+        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
     return int(value)
 
 
@@ -340,15 +309,10 @@ class UpdateReport:
     def __len__(self) -> int:
         return len(self.ids)
 
-    @property
-    def n_accepted(self) -> int:
-        """Number of readings fused."""
-        return int(np.count_nonzero(self.accepted))
-
-    @property
-    def rejected(self) -> np.ndarray:
-        """True for the readings that failed the gate."""
-        return np.array([s == "rejected" for s in self.status], dtype=bool)
+    n_accepted = property(lambda self: int(np.count_nonzero(self.accepted)),
+                          doc="Number of readings fused.")
+    rejected = property(lambda self: np.array([s == "rejected" for s in self.status], bool),
+                        doc="True for the readings that failed the gate.")
 
     def table(self) -> str:
         """A plain-text table of the readings, one line each (for notebooks)."""
@@ -443,7 +407,8 @@ class EKFLocalization:
     wheel_base = _Checked(lambda v: as_positive("wheel_base", v), "b (m).")
     new_gate = _Checked(lambda v: _check_gate(v, "new_gate", none=False), """Without ids: a
         reading is new only if its d2 to every landmark is at least chi2.ppf(new_gate, 2).""")
-    max_nodes = _Checked(_check_max_nodes, "JCBB's bound on the nodes searched per frame.")
+    max_nodes = _Checked(lambda v: integer_at_least("max_nodes", v, 1),
+                         "JCBB's bound on the nodes searched per frame.")
 
     @property
     def gate(self) -> float | None:
@@ -650,9 +615,8 @@ class EKFLocalization:
         return [("unknown" if ids is not None else "rejected", None)] * z.shape[0]
 
     def _save(self, copy_state: bool) -> tuple:
-        """What :meth:`_restore` needs to undo an update: the landmarks' count and, when the
-        update both fuses and adds (a landmark that fails comes after the joint update), a
-        copy of x and P."""
+        """What undoes an update: the state's size, and a copy of x and P when it both fuses
+        and adds (a new landmark that fails comes after the joint update)."""
         n = self._n
         state = (self._x[:n].copy(), self._P[:n, :n].copy()) if copy_state else None
         return n, list(self._ids), state
@@ -690,7 +654,7 @@ class EKFLocalization:
         k = count_readings(z)
         z = as_readings(z, k)
         R = as_reading_covariances(R, self._R, k)
-        keys = np.array(self.landmark_ids if self._can_add else list(self._map), dtype=np.int64)
+        keys = np.array(self.landmark_ids, dtype=np.int64)
         fields = _fields(np.full(k, -1, dtype=np.int64), z, ["rejected"] * k, self._gate,
                          self._threshold, matched=np.full(k, -1, dtype=np.int64))
         self.last_association = {"in_gate": np.zeros(k, dtype=np.int64), "jcbb": None,
@@ -775,11 +739,8 @@ class EKFSLAM(EKFLocalization):
 
     def __init__(self, x0, P0, Q, R, wheel_base: float = KOBUKI_WHEEL_BASE,
                  gate: float | None = 0.95, capacity: int = 16, association: str = "ids"):
-        if isinstance(capacity, (bool, np.bool_)) or not isinstance(
-                capacity, (numbers.Integral, np.integer)) or capacity < 0:
-            raise ValueError(f"capacity: expected a non-negative integer, got {capacity!r}")
         super().__init__(x0, P0, Q, R, None, wheel_base, gate, association,
-                         _capacity=int(capacity))
+                         _capacity=integer_at_least("capacity", capacity, 0))
 
     landmark_ids = property(lambda self: list(self._ids), doc="Marker ids in state order.")
     n_landmarks = property(lambda self: len(self._ids), doc="Landmarks in the state.")
