@@ -102,7 +102,8 @@ def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 
 def block_diagonal(blocks: np.ndarray) -> np.ndarray:
-    """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2)."""
+    """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2): :func:`diagonal_blocks`'s
+    inverse."""
     m = blocks.shape[0]
     out = np.zeros((2 * m, 2 * m))
     j = np.arange(m)
@@ -156,13 +157,18 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple[np.ndarray, np
     right reading, accepted when ``d2_i < threshold`` (:func:`gate_threshold`; the
     report writes ``y - h`` inside: ``y`` is meant). Returns ``d2`` (m,) and ``S_i``.
     """
-    m = y.shape[0]
-    j = np.arange(m)
-    S_i = S.reshape(m, 2, m, 2)[j, :, j, :]                 # S_i = H_i P H_i' + R_i
+    S_i = diagonal_blocks(S)                                # S_i = H_i P H_i' + R_i
     a, b, c = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]      # S_i^-1 = [[c, -b], [-b, a]] / det
     y0, y1 = y[:, 0], y[:, 1]
     d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / (a * c - b * b)  # d2 = y' S_i^-1 y
     return d2, S_i
+
+
+def diagonal_blocks(S: np.ndarray) -> np.ndarray:
+    """The m 2x2 blocks (m, 2, 2) on the diagonal of a (2m, 2m) matrix."""
+    m = S.shape[0] // 2
+    j = np.arange(m)
+    return S.reshape(m, 2, m, 2)[j, :, j, :]
 
 
 #: Rows of P changed by one product in :func:`joint_update` (a block of about 2 MB of P).
@@ -684,11 +690,15 @@ class EKFLocalization:
     def _pair(self, z, R, keys, cols, h, Hp, Hl, fields):
         """Steps 1-2 of :meth:`_update_without_ids`; returns what the joint update fuses."""
         slots = np.array(self._slots(keys[cols].tolist()), dtype=np.int64)
-        idx, H = stacked_jacobian(slots, Hp, Hl)
-        N, k = cols.size, z.shape[0]
-        PHt, C = innovation_covariance(self._P[:self._n, :self._n], idx, H, 0.0)  # C = H P H'
+        N, k, P = cols.size, z.shape[0], self._P[:self._n, :self._n]
+
+        def C(js):                                          # H P H' of landmarks js' readings
+            return innovation_covariance(P, *stacked_jacobian(slots[js], Hp[js], Hl[js]), 0.0)[1]
+
+        C_j = np.concatenate([diagonal_blocks(C(np.arange(j, min(j + 32, N))))
+                              for j in range(0, N, 32)])    # H_j P H_j', 32 landmarks at a time
         y = innovation(z[:, None, :], h[None, :, :])            # y_ij = z_i - h_j(x)
-        S = C.reshape(N, 2, N, 2)[np.arange(N), :, np.arange(N), :][None] + R[:, None]
+        S = C_j[None] + R[:, None]                              # S_ij = H_j P H_j' + R_i
         D2 = individual_d2(y, S)
         inside = D2 < self._threshold
         self.last_association["in_gate"] = np.count_nonzero(inside, axis=1)
@@ -699,8 +709,7 @@ class EKFLocalization:
             cand = np.flatnonzero(np.any(inside, axis=0))
             a = np.full(k, -1, dtype=np.int64)
             if cand.size:
-                cc = np.column_stack([2 * cand, 2 * cand + 1]).ravel()
-                res = jcbb(y[:, cand], D2[:, cand], C[np.ix_(cc, cc)], R, self._gate,
+                res = jcbb(y[:, cand], D2[:, cand], C(cand), R, self._gate,
                            max_nodes=self._max_nodes)
                 self.last_association["jcbb"] = res
                 a[res.assignment >= 0] = cand[res.assignment[res.assignment >= 0]]
@@ -714,9 +723,10 @@ class EKFLocalization:
         fields["matched_ids"][fused] = keys[cols[a[fused]]]
         for i in fused:
             fields["status"][i] = "accepted"
-        rows = np.column_stack([2 * a[fused], 2 * a[fused] + 1]).ravel()
-        S_joint = C[np.ix_(rows, rows)] + block_diagonal(R[fused])      # S = H P H' + R
-        return PHt[:, rows], (S_joint + S_joint.T) / 2, y[fused, a[fused]].reshape(-1)
+        j = a[fused]
+        idx, H = stacked_jacobian(slots[j], Hp[j], Hl[j])
+        return (*innovation_covariance(P, idx, H, block_diagonal(R[fused])),
+                y[fused, j].reshape(-1))
 
 
 class EKFSLAM(EKFLocalization):
