@@ -171,8 +171,10 @@ def diagonal_blocks(S: np.ndarray) -> np.ndarray:
     return S.reshape(m, 2, m, 2)[j, :, j, :]
 
 
-#: Rows of P changed by one product in :func:`joint_update` (a block of about 2 MB of P).
-_ROW_BLOCK_ENTRIES = 1 << 18
+#: Up to this n, :func:`joint_update` changes P with one product (exactly symmetric: BLAS's
+#: syrk); above, a few rows per product, rows x n x 2m below 2^18, which OpenBLAS computes
+#: in one thread, at memory speed (bench/README.md).
+_ONE_BLOCK, _PRODUCT = 512, 1 << 18
 
 
 def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
@@ -195,7 +197,8 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
         raise _not_finite("z", "the readings move the state by a non-finite amount")
     x += W.T @ v                                            # x = x + K y = x + W' L^-1 y
     x[2] = wrap(x[2])                                       # (the heading back to [-pi, pi))
-    n, rows = P.shape[0], max(1, _ROW_BLOCK_ENTRIES // P.shape[0])
+    n = P.shape[0]
+    rows = n if n <= _ONE_BLOCK else max(1, _PRODUCT // (n * W.shape[0]))
     for i in range(0, n, rows):                             # P = P - K S K' = P - W' W
         P[i:i + rows] -= W[:, i:i + rows].T @ W
     return float(v @ v)                                     # NIS = y' S^-1 y
