@@ -149,19 +149,20 @@ def innovation_covariance(P: np.ndarray, idx: np.ndarray, H: np.ndarray, R: np.n
     return PHt, (S + S.T) / 2
 
 
-def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple[np.ndarray, np.ndarray]:
+def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     """Each of m readings gated on its own against the prior (report eq. (6), chapter 05).
 
     ``S_i = H_i P H_i' + R_i`` is the i-th 2x2 block on the diagonal of the joint
     ``S``; ``d2_i = y_i' S_i^-1 y_i`` is chi-square with 2 degrees of freedom for a
-    right reading, accepted when ``d2_i < threshold`` (:func:`gate_threshold`; the
-    report writes ``y - h`` inside: ``y`` is meant). Returns ``d2`` (m,) and ``S_i``.
+    right reading, accepted when ``d2_i < threshold`` (:func:`gate_threshold`, inf
+    without gating; the report writes ``y - h`` inside: ``y`` is meant). Returns
+    ``d2`` (m,), ``S_i`` (m, 2, 2) and which readings are accepted (m,).
     """
     S_i = diagonal_blocks(S)                                # S_i = H_i P H_i' + R_i
     a, b, c = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]      # S_i^-1 = [[c, -b], [-b, a]] / det
     y0, y1 = y[:, 0], y[:, 1]
     d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / (a * c - b * b)  # d2 = y' S_i^-1 y
-    return d2, S_i
+    return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)
 
 
 def diagonal_blocks(S: np.ndarray) -> np.ndarray:
@@ -602,8 +603,7 @@ class EKFLocalization:
         idx, H = stacked_jacobian(np.array([slots[i] for i in g]), Hp, Hl)
         PHt, S = innovation_covariance(self._P[:self._n, :self._n], idx, H,
                                        block_diagonal(R[g]))
-        d2, S_i = gate(y, S, self._threshold)
-        acc = d2 < self._threshold if self._gate is not None else np.ones(g.size, dtype=bool)
+        d2, S_i, acc = gate(y, S, self._threshold)
         for i, a in zip(g.tolist(), acc.tolist()):
             status[i] = "accepted" if a else "rejected"
         fields = _fields(ids, z, status, self._gate, self._threshold, g, d2, y, h, S_i, acc)

@@ -106,7 +106,8 @@ def test_stacked_jacobian_and_S_equal_the_full_matrices_with_a_landmark_read_twi
     np.testing.assert_allclose(S, Hf @ P @ Hf.T + Rb, rtol=0, atol=TOL)
     assert np.array_equal(S, S.T)
     y = rng.normal(0, 0.1, (4, 2))
-    d2, S_i = ekf.gate(y, S, 5.99)
+    d2, S_i, acc = ekf.gate(y, S, 5.99)
+    np.testing.assert_array_equal(acc, d2 < 5.99)
     for j in range(4):
         Hj = Hf[2 * j:2 * j + 2]
         np.testing.assert_allclose(S_i[j], Hj @ P @ Hj.T + Rk[j], rtol=0, atol=TOL)
