@@ -267,7 +267,12 @@ class _Checked:
         self.name = "_" + name
 
     def __get__(self, obj, owner=None):
-        return self if obj is None else getattr(obj, self.name)
+        if obj is None:
+            return self
+        value = getattr(obj, self.name)
+        if isinstance(value, np.ndarray):               # (a copy of the filter is frozen too)
+            value.flags.writeable = False
+        return value
 
     def __set__(self, obj, value) -> None:
         value = self.check(value)
