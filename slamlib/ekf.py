@@ -854,11 +854,12 @@ class LinearisedEKFSLAM(EKFSLAM):
         for link, choice in links.items():
             if not isinstance(choice, str) or choice not in self.CHOICES[link]:
                 raise ValueError(f"{link}: expected one of {self.CHOICES[link]}, got {choice!r}")
-        if "truth" in links.values() and not callable(truth):
-            raise ValueError(f"truth: a 'truth' linearisation needs the true pose as a "
-                             f"callable t -> (3,), got {truth!r}")
-        if "truth" in links.values() and landmarks is None:
-            raise ValueError("landmarks: a 'truth' linearisation needs the true map {id: (2,)}")
+        missing = [name for name, ok in (("truth", callable(truth)),
+                                         ("landmarks", landmarks is not None)) if not ok]
+        if "truth" in links.values() and missing:
+            raise ValueError(f"{', '.join(missing)}: a 'truth' linearisation needs the true pose "
+                             f"(truth, a callable t -> (3,)) and the true map (landmarks, "
+                             f"{{id: (2,)}}), got truth={truth!r}")
         self.t = as_finite_scalar("t0", t0)
         super().__init__(x0, P0, Q, R, **kwargs)
         self._links = links

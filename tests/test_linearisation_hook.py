@@ -1,4 +1,4 @@
-"""Where EKF SLAM linearises, one link at a time (chapter 06; the spec shared with issue 20).
+"""Where EKF SLAM linearises, one link at a time, through one hook (chapter 06; issue 23).
 
 LinearisedEKFSLAM evaluates each link (motion, observation, initialisation, innovation)
 at the estimate, the first estimate or the truth through one hook,
