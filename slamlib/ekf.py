@@ -515,13 +515,16 @@ class EKFLocalization:
                          f"got {link!r}")
 
     # ------------------------------------------------------------------ predict
-    def predict(self, u, dt: float) -> None:
+    def predict(self, u, dt: float, Q=None) -> None:
         """Prediction with the wheel speeds ``u = [V_R, V_L]`` over ``dt`` (chapter 01):
-        :func:`predict` with the Jacobians of :meth:`jacobians`."""
+        :func:`predict` with the Jacobians of :meth:`jacobians`. ``Q``: this step's 2x2
+        covariance of ``u``, default the filter's own (a real log's noise density gives
+        each step its own, ``Q_c / dt``, chapter 10)."""
         u, dt = _check_control(u, dt)
+        Q = self._Q if Q is None else as_covariance("Q", Q, 2)
         A, W = self.jacobians("motion", u=u, dt=dt)
         n, b = self._n, self._wheel_base
-        step = (self._x[:n], self._P[:n, :n], u, dt, b, self._Q, A, W)
+        step = (self._x[:n], self._P[:n, :n], u, dt, b, Q, A, W)
         if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
             return predict(*step)                  # the usual case: nothing can overflow
         with np.errstate(all="ignore"):            # an overflow is refused, without a warning
@@ -885,8 +888,8 @@ class LinearisedEKFSLAM(EKFSLAM):
         self.landmark_index(marker_id)                       # ValueError if not mapped
         return self._first[int(marker_id)].copy()
 
-    def predict(self, u, dt: float) -> None:
-        super().predict(u, dt)
+    def predict(self, u, dt: float, Q=None) -> None:
+        super().predict(u, dt, Q)
         self._propagated = self.pose
         self.t += float(dt)
 

@@ -190,20 +190,27 @@ def integrate_odometry(u, dt, Q, wheel_base: float) -> Odometry:
         Wheel speeds ``[V_R, V_L]`` of each step (m/s).
     dt : array_like (k,)
         Step durations (s).
-    Q : array_like (2, 2)
-        Covariance of one step's ``u``.
+    Q : array_like (2, 2) or (k, 2, 2)
+        Covariance of one step's ``u``: the same for every step, or one per step
+        (a real log's noise density, ``Q_c / dt_k``, chapter 10).
     wheel_base : float
         b (m).
     """
     u = as_matrix("u", u, (None, 2))
     dt = as_vector("dt", dt, u.shape[0])
-    Q = as_covariance("Q", Q, 2, semidefinite=True)
+    if np.ndim(Q) == 3:
+        if np.shape(Q)[0] != u.shape[0]:
+            raise ValueError(f"Q: expected one 2x2 covariance per step ({u.shape[0]}), "
+                             f"got {np.shape(Q)[0]}")
+        Qs = [as_covariance("Q", q, 2, semidefinite=True) for q in Q]
+    else:
+        Qs = [as_covariance("Q", Q, 2, semidefinite=True)] * u.shape[0]
     d = np.zeros(3)
     S = np.zeros((3, 3))
     for k in range(u.shape[0]):
         A, W = motion_jacobians(d, u[k], dt[k], wheel_base)
         d = motion_model(d, u[k], dt[k], wheel_base)
-        S = A @ S @ A.T + W @ Q @ W.T
+        S = A @ S @ A.T + W @ Qs[k] @ W.T
     return Odometry(d, 0.5 * (S + S.T), int(u.shape[0]))
 
 
@@ -282,6 +289,8 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
     """
     if not np.isfinite(odometry_floor) or odometry_floor < 0.0:
         raise ValueError(f"odometry_floor: expected a variance >= 0, got {odometry_floor}")
+    # each step's Q: the run's own (a real log's density gives one per step) unless Q is given
+    Q_steps = run.Q_steps(np.diff(run.enc_t)) if Q is None else None
     Q = run.Q() if Q is None else as_covariance("Q", Q, 2, semidefinite=True)
     P0 = as_covariance("P0", P0, 3)
     R_default = default_R(run) if R is None else as_covariance("R", R, 2)
@@ -295,13 +304,16 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
     readings: list[list] = [[]]
     us: list[np.ndarray] = []
     dts: list[float] = []
+    qs: list[np.ndarray] = []
     t_last = float(run.enc_t[0])
 
     def close(t_node: float, k: str) -> None:
-        od = integrate_odometry(np.array(us), np.array(dts), Q, b)
+        od = integrate_odometry(np.array(us), np.array(dts), Q if Q_steps is None else
+                                np.array(qs), b)
         odometry.append(Odometry(od.delta, od.cov + odometry_floor * np.eye(3), od.steps))
         us.clear()
         dts.clear()
+        qs.clear()
         t.append(float(t_node))
         kind.append(k)
         readings.append([])
@@ -312,6 +324,8 @@ def build_problem(run: Run, *, Q=None, R=None, P0=DEFAULT_P0, by: str = "capture
         if ev.kind == "predict":
             us.append(ev.u)
             dts.append(ev.dt)
+            if Q_steps is not None:
+                qs.append(Q_steps[ev.k - 1])
             t_last = ev.t
             if max_steps is not None and len(us) >= int(max_steps):
                 close(ev.t, "predict")

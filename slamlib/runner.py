@@ -177,7 +177,8 @@ class TraceRecorder:
 
 
 def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,
-               max_time: float | None = None, until: float | None = None) -> Trace:
+               use_run_Q_steps: bool = True, max_time: float | None = None,
+               until: float | None = None) -> Trace:
     """Drive ``filt`` through ``run``'s events and record a :class:`Trace`.
 
     Parameters
@@ -191,6 +192,10 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     use_sensor_R : bool
         Give each reading the covariance ``sensor.R(range)`` of the run's
         sensor (it grows with range); otherwise the filter's own R.
+    use_run_Q_steps : bool
+        Give each step the covariance of ``u`` the run gives it
+        (:meth:`Run.Q_steps`: a real log's noise density, chapter 10), when
+        it gives one; otherwise the filter's own Q at every step.
     max_time : float, optional
         Stop after this time (s).
     until : float, optional
@@ -204,6 +209,7 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     rec = TraceRecorder(run.enc_t[0], filt)
     u_all, dt_all, events = run._event_blocks(by)      # the events of run.events(by)
     dt_all = dt_all.tolist()
+    Q_all = run.Q_steps(np.asarray(dt_all)) if use_run_Q_steps else None   # None: filter's Q
     # each reading's R = sensor.R(range), for all the run's readings at once
     cam = run.camera
     R_rows = reading_covariances(sensor, np.column_stack([cam.rho, cam.bearing]))
@@ -213,7 +219,10 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
             for j, t in zip(range(j0, j1), times):
                 if max_time is not None and t > max_time:
                     return rec.trace(run, filt, pending=pending)
-                filt.predict(u_all[j], dt_all[j])
+                if Q_all is None:                     # a filter written by hand takes (u, dt)
+                    filt.predict(u_all[j], dt_all[j])
+                else:                                 # this step's own Q (chapter 10)
+                    filt.predict(u_all[j], dt_all[j], Q_all[j])
                 rec.record(t, "predict", filt)
             continue
         _, t, obs, r0 = event
@@ -291,10 +300,14 @@ def dead_reckoning(run: Run, *, Q=None, P0=DEFAULT_P0, max_time: float | None = 
                        landmarks={})
     rec = TraceRecorder(run.enc_t[0], filt)
     u, dt = run.controls()
+    Q_all = run.Q_steps(dt) if Q is None else None     # a density's Q_c / dt_k, or None
     for k in range(dt.shape[0]):
         if max_time is not None and run.enc_t[k + 1] > max_time:
             break
-        filt.predict(u[k], dt[k])
+        if Q_all is None:
+            filt.predict(u[k], dt[k])
+        else:
+            filt.predict(u[k], dt[k], Q_all[k])
         rec.record(run.enc_t[k + 1], "predict", filt)
     return rec.trace(run, filt)
 
@@ -304,7 +317,8 @@ def localization(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, 
     """The map-based EKF on the run's world (chapter 03, the report's Figs. 5 and 6)."""
     lm = run.world().landmarks() if landmarks is None else landmarks
     filt = make_filter(EKFLocalization, run, Q=Q, P0=P0, R=R, gate=gate, landmarks=lm)
-    return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None)
+    return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
+                      use_run_Q_steps=Q is None)
 
 
 def slam(run: Run, *, gate: float | None = 0.95, Q=None, P0=DEFAULT_P0, R=None,
@@ -342,7 +356,7 @@ def _slam_with(cls, run: Run, extra: dict, *, gate: float | None = 0.95, Q=None,
                max_time: float | None = None, until: float | None = None) -> Trace:
     filt = make_filter(cls, run, Q=Q, P0=P0, R=R, gate=gate, **extra)
     return run_filter(run, filt, by=by, use_sensor_R=use_sensor_R and R is None,
-                      max_time=max_time, until=until)
+                      use_run_Q_steps=Q is None, max_time=max_time, until=until)
 
 
 def truth_function(run: Run):

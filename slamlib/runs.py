@@ -14,9 +14,11 @@ chapters take their inputs from it through three helpers:
 
 File format
 -----------
-A run is a folder (``data/runs/<name>/``) of four files. The CSV files have
-one header line (exactly as below), then one row per line, comma-separated,
-numbers in plain decimal notation, no quoting, no blank lines::
+A run is a folder (``data/runs/<name>/``) of four files, UTF-8 without a
+byte-order mark. The CSV files have one header line (exactly as below), then
+one row per line, each line ending with a newline (a last line without one is
+a file cut short), comma-separated, numbers in plain decimal notation
+(integers within int64), no quoting, no blank lines::
 
     truth.csv     t,x,y,theta
                   true pose (m, m, rad; frame N, z-down) at time t (s);
@@ -39,12 +41,18 @@ numbers in plain decimal notation, no quoting, no blank lines::
                    "wheel_radius", "wheel_base"}, "motion": {"sigma_wheel", ...},
                    "sensor": {...}, "controller": {...}, "description"}
                   "world" names a world of data/worlds; "sensor" holds the
-                  sensor's parameters (AnalyticMarkerSensor.params()).
+                  sensor's parameters (AnalyticMarkerSensor.params());
+                  "duration" is the time the encoders span (s).
+
+The files describe one stretch of time: the truth covers the encoders' times,
+and every camera frame is captured within them (it may arrive later).
 
 No pickle anywhere: every file is text. The loader checks every line and
 raises :class:`RunFormatError` (a ValueError) naming the file, the line number
-and the reason (wrong column count, a field that is not a number or not an
-integer, a non-finite value, times not increasing, an unknown world...).
+(or the meta's field) and the reason (bytes that are not UTF-8, a file cut
+inside its last line, wrong column count, a field that is not a number or not
+an integer, a non-finite value, times not increasing, files that disagree on
+time, an unknown world, a field of the wrong type...).
 
 Values are rounded to the precision they are written with (:data:`DECIMALS`)
 when a :class:`Run` is made, so a run in memory and the same run saved and
@@ -70,7 +78,7 @@ from .models import (
     wrap_angle,
 )
 from .sensors import AnalyticMarkerSensor, Observations
-from .validate import as_positive, read_json_file
+from .validate import as_positive, read_json_file, read_text_file
 from .worlds import DATA_DIR, WORLDS_DIR, World, load_world
 
 __all__ = ["Run", "CameraRows", "PredictEvent", "UpdateEvent", "RunFormatError",
@@ -301,6 +309,12 @@ class Run:
             var += self.quantisation_variance(dt)
         return var * np.eye(2)
 
+    def Q_steps(self, dt: np.ndarray) -> np.ndarray | None:
+        """Each step's covariance of ``u`` (k, 2, 2) for the steps ``dt`` (k,), or None when
+        every step takes :meth:`Q` (a simulated run). A real log whose noise is a density
+        (chapter 10) gives ``Q_c / dt_k``."""
+        return None
+
     # ------------------------------------------------------------------ helpers
     def controls(self) -> tuple[np.ndarray, np.ndarray]:
         """Wheel speeds from the encoders (chapter 01).
@@ -489,15 +503,24 @@ def save_run(run: Run, folder) -> None:
 
 
 # --------------------------------------------------------------------------- reading
+INT64_MIN, INT64_MAX = -(2**63), 2**63 - 1
+
+
+def _shown(s: str) -> str:
+    """A field for an error message: at most 24 characters of it."""
+    return repr(s) if len(s) <= 24 else f"{s[:20]!r}... ({len(s)} characters)"
+
+
 def _read_csv(path: Path, header: tuple[str, ...], kinds: tuple[str, ...],
               allow_nan: tuple[str, ...] = ()) -> dict[str, np.ndarray]:
     """Parse a CSV with the exact ``header``; kinds: 'f' float, 'i' integer."""
-    if not path.is_file():
-        raise RunFormatError(f"{path}: missing file")
-    text = path.read_text(encoding="utf-8")
+    text = read_text_file(path, RunFormatError)
     lines = text.split("\n")
     if lines and lines[-1] == "":
         lines.pop()
+    elif lines[-1]:                  # the writer ends every line: the file was cut in this one
+        raise RunFormatError(f"{path}: line {len(lines)}: the file ends inside this line (no "
+                             f"newline after it): cut short?")
     if not lines:
         raise RunFormatError(f"{path}: line 1: empty file, expected the header "
                              f"{','.join(header)}")
@@ -516,19 +539,24 @@ def _read_csv(path: Path, header: tuple[str, ...], kinds: tuple[str, ...],
             s = s.strip()
             if kind == "i":
                 try:
-                    v = int(s)
+                    v = int(s) if len(s) <= 40 else None      # int() reads 4300 digits
                 except ValueError:
+                    v = None
+                if v is None:
                     raise RunFormatError(f"{path}: line {ln}: column {name}: expected an "
-                                         f"integer, got {s!r}") from None
+                                         f"integer, got {_shown(s)}")
+                if not INT64_MIN <= v <= INT64_MAX:
+                    raise RunFormatError(f"{path}: line {ln}: column {name}: expected an "
+                                         f"integer within int64, got {_shown(s)}")
             else:
                 try:
                     v = float(s)
                 except ValueError:
                     raise RunFormatError(f"{path}: line {ln}: column {name}: expected a "
-                                         f"number, got {s!r}") from None
+                                         f"number, got {_shown(s)}") from None
                 if not math.isfinite(v) and not (math.isnan(v) and name in allow_nan):
                     raise RunFormatError(f"{path}: line {ln}: column {name}: expected a "
-                                         f"finite number, got {s!r}")
+                                         f"finite number, got {_shown(s)}")
             cols[j].append(v)
     return {name: np.array(c, dtype=np.int64 if kind == "i" else float)
             for name, c, kind in zip(header, cols, kinds)}
@@ -544,6 +572,13 @@ def _increasing(path: Path, t: np.ndarray, name: str, strict: bool = True) -> No
                              f"({t[i]} after {t[i - 1]})")
 
 
+def _is_number(v) -> bool:
+    """A finite JSON number (not a bool; an integer too large for a float is not one)."""
+    if isinstance(v, bool) or not isinstance(v, (int, float)):
+        return False
+    return math.isfinite(v) if isinstance(v, float) else abs(v) < 2**1000
+
+
 def _read_meta(path: Path) -> dict:
     meta, _ = read_json_file(path, RunFormatError)
     if not isinstance(meta, dict):
@@ -557,13 +592,22 @@ def _read_meta(path: Path) -> dict:
     if not (WORLDS_DIR / f"{meta['world']}.json").is_file():
         raise RunFormatError(f"{path}: field 'world': unknown world {meta['world']!r} "
                              f"(no {meta['world']}.json in {WORLDS_DIR})")
+    for key in ("encoder", "motion", "sensor", "controller"):
+        if key in meta and not isinstance(meta[key], dict):
+            raise RunFormatError(f"{path}: field '{key}': expected an object, got "
+                                 f"{meta[key]!r}"[:200])
+    for key, ok, what in (
+            ("seed", lambda v: v is None or (isinstance(v, int) and not isinstance(v, bool)),
+             "an integer or null"),
+            ("duration", lambda v: _is_number(v) and v >= 0, "a number >= 0 (s)"),
+            ("description", lambda v: isinstance(v, str), "a string")):
+        if key in meta and not ok(meta[key]):
+            raise RunFormatError(f"{path}: field '{key}': expected {what}, got "
+                                 f"{meta[key]!r}"[:200])
     enc = meta.get("encoder", {})
-    if not isinstance(enc, dict):
-        raise RunFormatError(f"{path}: field 'encoder': expected an object")
     for key in ("rate", "ticks_per_rev", "wheel_radius", "wheel_base"):
         v = enc.get(key)
-        if key in enc and (isinstance(v, bool) or not isinstance(v, (int, float))
-                           or not math.isfinite(v) or v <= 0):
+        if key in enc and (not _is_number(v) or v <= 0):
             raise RunFormatError(f"{path}: field 'encoder.{key}': expected a positive "
                                  f"number, got {v!r}")
     bits = enc.get("bits", 16)
@@ -571,8 +615,7 @@ def _read_meta(path: Path) -> dict:
         raise RunFormatError(f"{path}: field 'encoder.bits': expected an integer in 1..62, "
                              f"got {bits!r}")
     sw = meta.get("motion", {}).get("sigma_wheel", 0.0)
-    if isinstance(sw, bool) or not isinstance(sw, (int, float)) or not math.isfinite(sw) \
-            or sw < 0:
+    if not _is_number(sw) or sw < 0:
         raise RunFormatError(f"{path}: field 'motion.sigma_wheel': expected a number >= 0, "
                              f"got {sw!r}")
     sensor = meta.get("sensor")
@@ -582,6 +625,35 @@ def _read_meta(path: Path) -> dict:
         except (TypeError, ValueError) as exc:
             raise RunFormatError(f"{path}: field 'sensor': {exc}") from None
     return meta
+
+
+def _same_times(folder: Path, meta: dict, truth_t: np.ndarray, enc_t: np.ndarray,
+                t_capture: np.ndarray) -> None:
+    """The files of one run describe one stretch of time: the encoders span the meta's
+    ``duration``, the truth covers the encoders and every camera frame lies within them
+    (a frame after the last encoder reading would be fused with no prediction to it)."""
+    enc = f"encoders.csv line {enc_t.size + 1}"
+    span = float(enc_t[-1] - enc_t[0])
+    if "duration" in meta and abs(span - float(meta["duration"])) > 1e-6:
+        raise RunFormatError(f"{folder / 'meta.json'}: field 'duration': {meta['duration']} s, "
+                             f"but the encoders span {span:g} s (the last reading, {enc}, is "
+                             f"at t = {enc_t[-1]:g}): lines missing?")
+    p = folder / "truth.csv"
+    if truth_t[0] > enc_t[0]:
+        raise RunFormatError(f"{p}: line 2: column t: the truth starts at {truth_t[0]:g} s, "
+                             f"after the first encoder reading (t = {enc_t[0]:g} s)")
+    if truth_t[-1] < enc_t[-1]:
+        raise RunFormatError(f"{p}: line {truth_t.size + 1}: column t: the truth ends at "
+                             f"{truth_t[-1]:g} s, before the last encoder reading "
+                             f"(t = {enc_t[-1]:g} s, {enc})")
+    p = folder / "camera.csv"
+    for bad, word in ((t_capture < enc_t[0], "before the first"),
+                      (t_capture > enc_t[-1], "after the last")):
+        if bad.any():
+            i = int(np.argmax(bad))
+            raise RunFormatError(f"{p}: line {i + 2}: column t_capture: {t_capture[i]:g} s is "
+                                 f"{word} encoder reading (t = "
+                                 f"{enc_t[0 if word == 'before the first' else -1]:g} s)")
 
 
 def load_run(folder) -> Run:
@@ -632,6 +704,7 @@ def load_run(folder) -> Run:
         i = int(neg[0])
         raise RunFormatError(f"{p}: line {i + 2}: column rho: expected a range >= 0, "
                              f"got {ca['rho'][i]}")
+    _same_times(folder, meta, tr["t"], en["t"], ca["t_capture"])
     # times stored are rounded already; rounding again is the identity
     return Run(name=meta["name"], truth_t=tr["t"],
                truth=np.column_stack([tr["x"], tr["y"], tr["theta"]]),

@@ -45,7 +45,7 @@ from .models import (
 )
 from .runs import CAMERA_HEADER, CameraRows, Run
 from .sensors import AnalyticMarkerSensor, Observations, _Geometry
-from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
+from .validate import as_finite_scalar, as_matrix, as_positive, as_seed, as_vector
 from .worlds import World
 
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
@@ -477,9 +477,7 @@ class KobukiSim:
             start_pose = world.start_pose
         pose = as_vector("start_pose", start_pose, 3).copy()
         pose[2] = wrap_angle(pose[2])
-        if not isinstance(seed, (int, np.integer)) or seed < 0:
-            raise ValueError(f"seed: expected a non-negative integer, got {seed!r}")
-        self.seed = int(seed)
+        self.seed = as_seed("seed", seed)
         self._rng_motion, self._rng_sense = np.random.default_rng(int(seed)).spawn(2)
         self._rate = float(getattr(sensor, "rate", 10.0)) if sensor is not None else 0.0
         self._latency = float(getattr(sensor, "latency", 0.0)) if sensor is not None else 0.0

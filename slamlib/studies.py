@@ -31,7 +31,7 @@ from . import runner
 from .metrics import chi2_band, pose_error
 from .metrics import nees as _nees
 from .runs import Run
-from .validate import as_covariance
+from .validate import as_covariance, as_positive, as_seed
 
 __all__ = ["NEESStudy", "monte_carlo", "monte_carlo_nees", "sample_trace", "Reobservation",
            "reobservation", "map_jobs"]
@@ -136,6 +136,9 @@ def _one_seed(job: tuple) -> tuple:
     scenario_name, seed, methods, step, t_end, sigma_wheel, gate, Q, sensor_overrides = job
     run = scenario(scenario_name, seed=seed, sigma_wheel=sigma_wheel, **sensor_overrides)
     end = float(run.enc_t[-1])
+    if t_end is not None and t_end > end + 1e-9:
+        raise ValueError(f"t_end: {t_end:g} s is past the end of seed {seed}'s run ({end:g} s): "
+                         f"the grid must lie within every run (default: the shortest run's end)")
     last = end if t_end is None else t_end
     t = np.arange(1, int(np.floor(last / step + 1e-9)) + 1) * step
     out = {}
@@ -171,7 +174,8 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "s
         Spacing (s) of the time grid on which the NEES is sampled.
     t_end : float, optional
         Last grid time; default the end of the shortest run (runs end when the
-        path is done, a few encoder periods apart).
+        path is done, a few encoder periods apart). A time past a run's end is
+        refused (the grid would repeat its last state).
     sigma_wheel, gate, **sensor_overrides
         Passed to :func:`slamlib.sim.scenario` (the filter's Q follows the
         simulated ``sigma_wheel``) and to the filter.
@@ -190,15 +194,14 @@ def monte_carlo(scenario_name: str, methods: Sequence[str] = ("localization", "s
     for m in methods:
         if m not in _METHODS:
             raise ValueError(f"methods: expected names from {_METHODS}, got {m!r}")
-    seeds = tuple(int(s) for s in seeds)
+    seeds = tuple(as_seed(f"seeds[{i}]", s) for i, s in enumerate(seeds))
     if not seeds:
         raise ValueError("seeds: expected at least one seed")
-    if not step > 0:
-        raise ValueError(f"step: expected a positive time step, got {step}")
+    step = as_positive("step", step)
     if isinstance(workers, bool) or not isinstance(workers, (int, np.integer)) or workers < 1:
         raise ValueError(f"workers: expected a positive integer, got {workers!r}")
     Q = None if Q is None else as_covariance("Q", Q, 2)
-    t_end = None if t_end is None else float(t_end)
+    t_end = None if t_end is None else as_positive("t_end", t_end)
     jobs = [(scenario_name, s, methods, float(step), t_end, sigma_wheel, gate, Q,
              sensor_overrides) for s in seeds]
     results = map_jobs(_one_seed, jobs, int(workers))

@@ -34,14 +34,24 @@ from pathlib import Path
 
 import numpy as np
 
-from .validate import read_json_file
+from .validate import ID_MAX, read_json_file
 
 __all__ = ["Marker", "World", "WorldFormatError", "load_world", "save_world", "random_world",
            "report_arena", "DATA_DIR", "WORLDS_DIR"]
 
 FORMAT = "slamlib-world/1"
 #: The project's data folder (worlds, runs, calibration).
-DATA_DIR = Path(__file__).resolve().parent.parent / "data"
+def _data_dir() -> Path:
+    """The course's data: ``slamlib/data`` where a non-editable install ships it (the
+    package data of ``pyproject.toml``), else ``data/`` beside the package (a checkout, or
+    an editable install of one)."""
+    package = Path(__file__).resolve().parent
+    shipped = package / "data"
+    return shipped if shipped.is_dir() else package.parent / "data"
+
+
+#: Where the worlds, runs, calibration and stored studies are (see :func:`_data_dir`).
+DATA_DIR = _data_dir()
 WORLDS_DIR = DATA_DIR / "worlds"
 
 
@@ -127,8 +137,9 @@ def _number(where: str, obj: dict, key: str, positive: bool = False) -> float:
     v = obj[key]
     if isinstance(v, bool) or not isinstance(v, (int, float)):
         raise WorldFormatError(f"{where}.{key}: expected a number, got {v!r}")
-    if not math.isfinite(v):
-        raise WorldFormatError(f"{where}.{key}: expected a finite number, got {v!r}")
+    if not math.isfinite(v) if isinstance(v, float) else abs(v) > 2**1000:
+        raise WorldFormatError(f"{where}.{key}: expected a finite number, got "
+                               f"{v if isinstance(v, float) else 'an integer that large'}")
     if positive and v <= 0:
         raise WorldFormatError(f"{where}.{key}: expected a positive number, got {v!r}")
     return float(v)
@@ -171,8 +182,9 @@ def world_from_dict(d: dict, where: str = "world") -> World:
         if not isinstance(m, dict):
             raise WorldFormatError(f"{w}: expected an object with id, x, y, yaw")
         mid = m.get("id")
-        if isinstance(mid, bool) or not isinstance(mid, int) or mid < 0:
-            raise WorldFormatError(f"{w}.id: expected a non-negative integer, got {mid!r}")
+        if isinstance(mid, bool) or not isinstance(mid, int) or not 0 <= mid <= ID_MAX:
+            raise WorldFormatError(f"{w}.id: expected an integer in 0..2**63-1, got "
+                                   f"{mid!r}"[:200])
         if mid in seen:
             raise WorldFormatError(f"{w}.id: duplicate id {mid} (also markers[{seen[mid]}])")
         seen[mid] = k

@@ -4,6 +4,7 @@ import itertools
 
 import numpy as np
 import pytest
+from same_record import assert_same_record
 
 from slamlib import association as asc
 from slamlib import ekf
@@ -318,7 +319,7 @@ def test_stored_study_is_regenerated_by_the_code():
     for seed in (settings["seeds"][0], settings["seeds"][37]):
         for m in settings["methods"]:
             stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
-            assert study_row(seed, m, settings) == stored
+            assert_same_record(study_row(seed, m, settings), stored, f"{seed} {m}")
 
 
 def test_stored_drift_study_is_regenerated_by_the_code():
@@ -333,7 +334,7 @@ def test_stored_drift_study_is_regenerated_by_the_code():
         for m, g in settings["configs"]:
             stored = next(r for r in rows if r["seed"] == seed and r["method"] == m
                           and r["gate"] == g)
-            assert drift_row(seed, m, g, settings) == stored
+            assert_same_record(drift_row(seed, m, g, settings), stored, f"{seed} {m} {g}")
     # the scoring after the closure is a part of the whole: never more wrong late than in all
     assert all(0 <= r["wrong_late"] <= r["wrong"] <= r["fused"] for r in rows)
 
@@ -348,7 +349,7 @@ def test_stored_dense_study_is_regenerated_by_the_code():
     for seed in (settings["seeds"][0], settings["seeds"][41]):
         for m in settings["methods"]:
             stored = next(r for r in rows if r["seed"] == seed and r["method"] == m)
-            assert dense_row(seed, m, settings) == stored
+            assert_same_record(dense_row(seed, m, settings), stored, f"{seed} {m}")
 
 
 def test_confirmed_slam_without_ids_errors_and_copies():

@@ -91,3 +91,104 @@ def test_the_cases_make_the_cross_terms_matter():
     # the verdict says the sum of the individual distances would fail at every case
     for y, H, P, R in joint_distance_cases():
         assert not np.isclose(sum_of_individual(y, H, P, R), right(y, H, P, R), rtol=1e-3)
+
+
+# ------------------------------------------------------------------------------ JCBB's search
+from slamlib import association as asc  # noqa: E402
+from slamlib.course.checkers_ch09 import _joint, best_hypothesis, check_jcbb, jcbb_cases  # noqa: E402
+from slamlib.metrics import chi2_quantile  # noqa: E402
+
+
+def _cands(d2, gate):
+    return [sorted((j for j in range(d2.shape[1]) if d2[i, j] < chi2_quantile(gate, 2)),
+                   key=lambda j: d2[i, j]) for i in range(d2.shape[0])]
+
+
+def jcbb_search(d2, joint, gate, *, tie_break=True, prefix_test=True):
+    """A plain recursive JCBB (with switches that make the usual mistakes)."""
+    k = d2.shape[0]
+    cands = _cands(d2, gate)
+    best = {"pairs": [], "D2": 0.0, "n": -1}
+
+    def search(i, pairs, D2):
+        if i == k:
+            if prefix_test or not pairs or joint(pairs) < chi2_quantile(gate, 2 * len(pairs)):
+                better = len(pairs) > best["n"] or (tie_break and len(pairs) == best["n"]
+                                                    and D2 < best["D2"])
+                if better:
+                    best.update(pairs=list(pairs), D2=D2, n=len(pairs))
+            return
+        for j in cands[i]:
+            if any(j == jj for _, jj in pairs):
+                continue
+            D = joint(pairs + [(i, j)])
+            if not prefix_test or D < chi2_quantile(gate, 2 * (len(pairs) + 1)):
+                search(i + 1, pairs + [(i, j)], D)
+        search(i + 1, pairs, D2)
+
+    search(0, [], 0.0)
+    out = np.full(k, -1)
+    for i, j in best["pairs"]:
+        out[i] = j
+    return out
+
+
+def sequential_nn(d2, joint, gate):
+    """The first leaf: each reading in turn to its closest landmark that keeps the set jointly
+    compatible, never revisited."""
+    pairs = []
+    for i, c in enumerate(_cands(d2, gate)):
+        for j in c:
+            if all(j != jj for _, jj in pairs) and \
+                    joint(pairs + [(i, j)]) < chi2_quantile(gate, 2 * (len(pairs) + 1)):
+                pairs.append((i, j))
+                break
+    out = np.full(d2.shape[0], -1)
+    for i, j in pairs:
+        out[i] = j
+    return out
+
+
+def individual_nn(d2, joint, gate):
+    return asc.nearest_neighbour(d2, chi2_quantile(gate, 2))
+
+
+def test_jcbb_checker_accepts_a_right_search(capsys):
+    assert check_jcbb(jcbb_search) is True
+    assert "correct" in capsys.readouterr().out
+
+
+def test_jcbb_checker_reference_is_the_library_answer():
+    # two independent answers to the same question: enumeration here, branch and bound there
+    for d2, y, C, R in jcbb_cases():
+        want = best_hypothesis(d2, lambda p, y=y, C=C, R=R: _joint(y, C, R, p), 0.95)[0]
+        assert list(asc.jcbb(y, d2, C, R, 0.95).assignment) == list(want)
+
+
+def test_jcbb_checker_cases_separate_jcbb_from_nn():
+    # section 4's frame, and at least one other, where NN's answer is not JCBB's
+    differ = [list(individual_nn(d2, None, 0.95))
+              != list(best_hypothesis(d2, lambda p, y=y, C=C, R=R: _joint(y, C, R, p),
+                                      0.95)[0])
+              for d2, y, C, R in jcbb_cases()]
+    assert differ[0] and sum(differ) >= 2
+
+
+@pytest.mark.parametrize("fn, words", [
+    (individual_nn, "section 4's frame"),
+    (sequential_nn, "sequential nearest neighbour"),
+    (lambda d2, j, g: jcbb_search(d2, j, g, tie_break=False), "smallest D2"),
+    (lambda d2, j, g: np.zeros(d2.shape[0] + 1, int), "one landmark index per reading"),
+    (lambda d2, j, g: None, "not written yet"),
+])
+def test_jcbb_checker_names_the_mistake(fn, words, capsys):
+    assert check_jcbb(fn) is False
+    assert words in capsys.readouterr().out
+
+
+def test_jcbb_checker_names_a_pair_outside_its_gate_and_a_landmark_used_twice(capsys):
+    def everything_to_zero(d2, joint, gate):
+        return np.zeros(d2.shape[0], int)
+    assert check_jcbb(everything_to_zero) is False
+    out = capsys.readouterr().out
+    assert "outside its individual gate" in out or "two readings" in out

@@ -72,6 +72,22 @@ def test_inverse_observation_checker_wrong_J2_is_not_called_transposed(capsys):
     assert "sign flipped" in out and "transposed" not in out
 
 
+def test_inverse_observation_checker_names_a_J2_entry_with_the_wrong_sign(capsys):
+    # written by hand with the sign of d x_F / d beta slipped
+    from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
+
+    def mine(pose, z):
+        rho, a = z[0], pose[2] + z[1]
+        J1 = np.array([[1.0, 0.0, -rho * np.sin(a)], [0.0, 1.0, rho * np.cos(a)]])
+        J2 = np.array([[np.cos(a), rho * np.sin(a)], [np.sin(a), rho * np.cos(a)]])
+        return J1, J2
+
+    assert check_inverse_observation_jacobians(mine) is False
+    out = capsys.readouterr().out
+    assert "J2[0,1] = d x_F / d beta = -rho sin(theta + beta) (yours has the opposite sign)" in out
+    assert "transposed" not in out
+
+
 @pytest.mark.parametrize("kind", ["none", "raise"])
 def test_inverse_observation_checker_stub_is_not_written_yet(capsys, kind):
     from slamlib.course.checkers_ch04 import check_inverse_observation_jacobians
@@ -223,6 +239,52 @@ def test_observation_checker_hints_dbearing_dtheta(capsys):
     out = capsys.readouterr().out
     assert "H_pose[1,2]" in out and "d bearing / d theta = -1" in out
     assert "sqrt(q)" not in out
+
+
+def _written_out(sign_bx=1.0, sign_dy_q=1.0, range_den="r", sign_dby=1.0):
+    """A student's H_pose, H_landmark written out by hand, with one knob per slip."""
+    def mine(pose, landmark):
+        dx, dy = landmark[0] - pose[0], landmark[1] - pose[1]
+        q = dx * dx + dy * dy
+        den = np.sqrt(q) if range_den == "r" else q
+        Hp = np.array([[sign_bx * -dx / den, -dy / den, 0.0],
+                       [sign_dy_q * dy / q, -dx / q, -1.0]])
+        Hl = np.array([[dx / den, dy / den], [-dy / q, sign_dby * dx / q]])
+        return Hp, Hl
+    return mine
+
+
+@pytest.mark.parametrize("slip, words", [
+    ({"sign_dy_q": -1.0}, "H_pose[1,0] = d bearing / d x = dy/q (yours has the opposite sign)"),
+    ({"sign_dby": -1.0}, "H_landmark[1,1] = d bearing / d y_F = dx/q (yours has the opposite"),
+    ({"sign_bx": -1.0}, "H_pose[0,0] = d range / d x = -dx/sqrt(q)"),
+    ({"range_den": "q"}, "the range row is [dx/sqrt(q), dy/sqrt(q)]"),
+])
+def test_observation_checker_names_the_entry_and_its_formula(slip, words, capsys):
+    # a single slip that none of the report's errors explains gets the entry's own formula,
+    # not the generic hint
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+
+    assert check_observation_jacobians(_written_out()) is True
+    capsys.readouterr()
+    assert check_observation_jacobians(_written_out(**slip)) is False
+    out = capsys.readouterr().out
+    assert words in out, out
+    assert "H_landmark is minus the first two columns" not in out
+
+
+def test_observation_checker_zero_entry_gets_its_reason(capsys):
+    from slamlib.course.checkers_ch03 import check_observation_jacobians
+    from slamlib.models import observation_jacobians
+
+    def range_turns(pose, landmark):
+        Hp, Hl = observation_jacobians(pose, landmark)
+        Hp[0, 2] = np.hypot(*(np.asarray(landmark) - pose[:2]))   # "range times dtheta"
+        return Hp, Hl
+
+    assert check_observation_jacobians(range_turns) is False
+    out = capsys.readouterr().out
+    assert "H_pose[0,2] = d range / d theta = 0: turning in place" in out, out
 
 
 def test_inverse_observation_checker_report_hint_only_for_the_report_typo(capsys):
@@ -551,16 +613,133 @@ def test_motion_checker_accepts_a_right_answer(capsys):
     assert "correct" in capsys.readouterr().out
 
 
+def _motion_model_by_hand(x, u, dt, b, turn=1.0):
+    # one Euler step, written out from chapter 01 (turn=-1: the z-up ROS turn rate)
+    V, w = 0.5 * (u[0] + u[1]), turn * (u[1] - u[0]) / b
+    return np.array([x[0] + V * np.cos(x[2]) * dt, x[1] + V * np.sin(x[2]) * dt, x[2] + w * dt])
+
+
+def _ros_model(x, u, dt, b):
+    return _motion_model_by_hand(x, u, dt, b, turn=-1.0)
+
+
+def _swapped_columns(x, u, dt, b):
+    A, W = _motion_jacobians_by_hand(x, u, dt, b)
+    return A, W[:, ::-1]
+
+
+def _ros_turn_rate(x, u, dt, b):
+    # derived from the ROS model: the last row of W is [dt/b, -dt/b], the same numbers as
+    # _swapped_columns, so only the student's model can tell the two mistakes apart
+    A, W = _motion_jacobians_by_hand(x, u, dt, b)
+    W[2] = [dt / b, -dt / b]
+    return A, W
+
+
+def test_motion_checker_accepts_a_right_model_and_jacobians(capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    assert check_motion_jacobians(_motion_jacobians_by_hand, model=_motion_model_by_hand) is True
+    out = capsys.readouterr().out
+    assert "correct" in out and "motion model matches" in out
+
+
 def test_motion_checker_names_swapped_W_columns(capsys):
     from slamlib.course.checkers_ch01 import check_motion_jacobians
 
-    def swapped(x, u, dt, b):
-        A, W = _motion_jacobians_by_hand(x, u, dt, b)
-        return A, W[:, ::-1]
-
-    assert check_motion_jacobians(swapped) is False
+    assert check_motion_jacobians(_swapped_columns, model=_motion_model_by_hand) is False
     out = capsys.readouterr().out
     assert "W columns are swapped" in out and "column 0 is d/dw_R" in out
+    assert "turn rate's sign is not the cause" in out
+
+
+def test_motion_checker_names_the_turn_rate_sign_not_the_columns(capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    assert check_motion_jacobians(_ros_turn_rate, model=_ros_model) is False
+    out = capsys.readouterr().out
+    assert "turns the wrong way" in out and "The cause is the turn rate's sign" in out
+    assert "W columns are swapped" not in out and "(V_L - V_R)/b" in out
+
+
+def test_motion_checker_without_the_model_names_both_causes(capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    for wrong in (_swapped_columns, _ros_turn_rate):
+        assert check_motion_jacobians(wrong) is False
+        out = capsys.readouterr().out
+        assert "Two different mistakes" in out and "columns swapped" in out
+        assert "turn rate of the wrong sign" in out and "model=my_motion_model" in out
+
+
+def test_motion_checker_rejects_a_model_that_turns_the_wrong_way_with_right_jacobians(capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    assert check_motion_jacobians(_motion_jacobians_by_hand, model=_ros_model) is False
+    out = capsys.readouterr().out
+    assert "turns the wrong way" in out and "fix its turn rate" in out
+
+
+@pytest.mark.parametrize("model, words", [
+    (lambda x, u, dt, b: None, "not written yet"),
+    (lambda x, u, dt, b: np.zeros(2), "expected a pose [x, y, theta]"),
+    # the heading of the end of the step in the position update: a generic mistake
+    (lambda x, u, dt, b: _motion_model_by_hand(
+        [x[0], x[1], x[2] + (u[1] - u[0]) / b * dt], u, dt, b) - [0, 0, (u[1] - u[0]) / b * dt],
+     "heading at the START of the step"),
+])
+def test_motion_checker_checks_the_model_first(model, words, capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    assert check_motion_jacobians(_motion_jacobians_by_hand, model=model) is False
+    assert words in capsys.readouterr().out
+
+
+def test_motion_checker_accepts_a_model_that_does_not_wrap_the_heading(capsys):
+    from slamlib.course.checkers_ch01 import check_motion_jacobians
+
+    def unwrapped(x, u, dt, b):
+        return _motion_model_by_hand(x, u, dt, b) + [0.0, 0.0, 2 * np.pi]
+
+    assert check_motion_jacobians(_motion_jacobians_by_hand, model=unwrapped) is True
+
+
+def test_prediction_checkers_say_not_written_yet_without_touching_the_run(capsys):
+    from slamlib.course.checkers_ch01 import check_bound_ratio_prediction, check_halved_Q_prediction
+
+    class NoRun:
+        def __getattr__(self, name):
+            raise AssertionError("a stub must not measure anything")
+
+    for check in (check_halved_Q_prediction, check_bound_ratio_prediction):
+        assert check(None, NoRun()) is False
+        out = capsys.readouterr().out
+        assert "not written yet" in out and "sqrt" not in out and "11.0" not in out
+
+
+def test_prediction_checkers_measure_what_the_closed_form_says(capsys):
+    # the heading variance is linear in Q and in time (A leaves the heading alone), so the
+    # measured bounds follow 1/sqrt(2) and sqrt(t) up to the tiny initial variance
+    from slamlib.course.checkers_ch01 import check_bound_ratio_prediction, check_halved_Q_prediction
+    from slamlib.runner import dead_reckoning
+    from slamlib.runs import load_run
+
+    run = load_run("arena_loop")
+    full = np.degrees(2 * np.sqrt(dead_reckoning(run).P[-1, 2, 2]))
+    assert check_halved_Q_prediction(full / np.sqrt(2), run, n_runs=200) is True
+    out = capsys.readouterr().out
+    assert "Right" in out and "200 seeded noisy runs" in out
+    measured = float(out.split("measured ")[1].split(" deg")[0])
+    assert measured == pytest.approx(full / np.sqrt(2), rel=1e-3)
+    assert check_halved_Q_prediction(full / 2, run, n_runs=200) is False
+    assert "Not quite" in capsys.readouterr().out
+
+    t_end = run.enc_t[-1] - run.enc_t[0]
+    assert check_bound_ratio_prediction(np.sqrt(t_end / 15.0), run, n_runs=200) is True
+    out = capsys.readouterr().out
+    measured = float(out.split("measured ")[1].split(" (")[0])
+    assert measured == pytest.approx(np.sqrt(t_end / 15.0), rel=0.01)
+    assert check_bound_ratio_prediction(4.0, run, n_runs=200) is False
 
 
 def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):
@@ -570,7 +749,7 @@ def test_motion_checker_does_not_call_a_wrong_A_swapped(capsys):
         A, W = _motion_jacobians_by_hand(x, u, dt, b)
         return A.T, W
 
-    assert check_motion_jacobians(wrong_A) is False
+    assert check_motion_jacobians(wrong_A, model=_motion_model_by_hand) is False
     out = capsys.readouterr().out
     assert "swapped" not in out and "A[" in out
 

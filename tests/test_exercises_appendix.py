@@ -32,9 +32,9 @@ def test_uses_the_eps_it_passes():
     # a central difference with a large step is not accurate enough: the eps is really used
     seen = []
 
-    def spy(f, x, eps=1e-6):
+    def spy(f, x, eps=1e-6, angle_outputs=()):
         seen.append(eps)
-        return numerical_jacobian(f, x, eps=eps)
+        return numerical_jacobian(f, x, eps=eps, angle_outputs=angle_outputs)
 
     assert check_numerical_jacobian(spy, verbose=False)
     assert set(seen) == {1e-3}
@@ -80,3 +80,28 @@ def test_a_student_error_is_reported_not_raised(capsys):
         raise KeyError("oops")
     assert not check_numerical_jacobian(broken)
     assert "KeyError" in capsys.readouterr().out
+
+
+def central_without_wrap(f, x, eps=1e-6, angle_outputs=()):
+    return np.stack([(f(x + eps * e) - f(x - eps * e)) / (2 * eps) for e in np.eye(len(x))],
+                    axis=1)
+
+
+def test_an_unwrapped_angle_difference_fails_at_the_seam_with_a_hint(capsys):
+    # right on the three smooth cases, wrong across the +-pi seam: the hint names the wrap
+    assert not check_numerical_jacobian(central_without_wrap)
+    out = capsys.readouterr().out
+    assert "seam" in out and "2 pi" in out and "Wrap" in out
+
+
+def test_a_function_without_angle_outputs_is_told_the_signature(capsys):
+    assert not check_numerical_jacobian(lambda f, x, eps=1e-6: numerical_jacobian(f, x, eps))
+    out = capsys.readouterr().out
+    assert "angle_outputs=()" in out and "TypeError" in out
+
+
+def test_the_seam_case_really_crosses_the_seam():
+    # the bearing of the seam point at x - eps and x + eps differs by almost 2 pi unwrapped
+    p, eps = np.array([-1.5, 2e-4]), 1e-3
+    b = [np.arctan2(q[1], q[0]) for q in (p - eps * np.eye(2)[1], p + eps * np.eye(2)[1])]
+    assert abs(b[1] - b[0]) > 6.0

@@ -369,6 +369,40 @@ def test_augmentation_mistakes_are_named(fn, words, capsys):
     assert not ok and words in out, out
 
 
+def aug_by_hand(j1_sign=(1, 1), j2_sign=(1, 1, 1, 1)):
+    """A student's augmentation with J1 and J2 written out by hand (a = theta + beta); the
+    signs of J1's theta column and of J2's four entries are knobs for a slip."""
+    def my_augment(x, P, z, R):
+        rho, a = z[0], x[2] + z[1]
+        J1 = np.array([[1.0, 0.0, j1_sign[0] * -rho * np.sin(a)],
+                       [0.0, 1.0, j1_sign[1] * rho * np.cos(a)]])
+        s = j2_sign
+        J2 = np.array([[s[0] * np.cos(a), s[1] * -rho * np.sin(a)],
+                       [s[2] * np.sin(a), s[3] * rho * np.cos(a)]])
+        PLx = J1 @ P[:3, :]
+        PLL = J1 @ P[:3, :3] @ J1.T + J2 @ R @ J2.T
+        m = x[:2] + rho * np.array([np.cos(a), np.sin(a)])
+        return np.concatenate([x, m]), np.block([[P, PLx.T], [PLx, PLL]])
+    return my_augment
+
+
+@pytest.mark.parametrize("slip, words", [
+    ({"j1_sign": (-1, 1)}, "J1[0,2] has the wrong sign: J1[0,2] = d x_F / d theta = "
+                           "-rho sin(theta + beta)"),
+    ({"j1_sign": (1, -1)}, "J1[1,2] has the wrong sign"),
+    ({"j2_sign": (1, -1, 1, 1)}, "one sign in J2's column 1 is wrong (J2[0,1] = d x_F / d beta"),
+    ({"j2_sign": (1, 1, -1, 1)}, "one sign in J2's column 0 is wrong"),
+])
+def test_augmentation_sign_slips_name_the_entry(slip, words, capsys):
+    ok, out = verdict(fc.check_augment, aug_by_hand(), capsys)
+    assert ok, out
+    ok, out = verdict(fc.check_augment, aug_by_hand(**slip), capsys)
+    assert not ok and words in out, out
+    assert "P_LL (the new landmark's own block)" in out
+    if "J1" in words:
+        assert "P_Lx[:, :3] (the new landmark with the robot)" in out
+
+
 def test_augmentation_right_answers_pass(capsys):
     for fn in (aug_right, fc._augment):
         ok, out = verdict(fc.check_augment, fn, capsys)

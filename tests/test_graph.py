@@ -317,14 +317,20 @@ def test_mrclam_log_frames_ms_apart_need_the_qr_marginals(mrclam_log):
                                    atol=1e-10)
 
 
-def test_mrclam_log_without_readings_is_its_dead_reckoning(mrclam_log):
+@pytest.mark.parametrize("density", [False, True])
+def test_mrclam_log_without_readings_is_its_dead_reckoning(mrclam_log, density):
     # the loader's irregular timeline (commands and reading times): the graph's chain of
-    # odometry factors is the filter's prediction over the same steps
+    # odometry factors is the filter's prediction over the same steps, with the textbook's Q
+    # per step or with a noise density (each step its own Q_c / dt, chapter 10)
     from slamlib.datasets import mrclam
 
-    blind = mrclam_log.select_readings(np.zeros(len(mrclam_log.camera), dtype=bool))
+    log = mrclam_log
+    if density:
+        log = log.with_noise(Q_density=[[2e-4, 1.5e-4], [1.5e-4, 2e-4]])
+        assert log.Q_steps(np.diff(log.enc_t)) is not None
+    blind = log.select_readings(np.zeros(len(log.camera), dtype=bool))
     g = graph.smooth(blind, "batch", max_steps=400)
-    dr = mrclam.dead_reckoning(mrclam_log)
+    dr = mrclam.dead_reckoning(log)
     assert not g.landmark_ids and len(g.t) > 10
     k = np.searchsorted(dr.t, g.t)
     np.testing.assert_array_equal(dr.t[k], g.t)

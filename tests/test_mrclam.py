@@ -60,6 +60,19 @@ def folder(tmp_path):
      "time goes backwards"),
     ("Landmark_Groundtruth.dat", LANDMARKS + [(9, 1.0, 1.0, 0.0, 0.0)], 7, "has no barcode"),
     ("Landmark_Groundtruth.dat", [(6, 3.0, 4.0, 0.0001)], 5, "4 columns"),
+    ("Landmark_Groundtruth.dat", LANDMARKS[:1] + [(7, -1.0, 2.0, -0.0001, 0.0002)], 6,
+     "column x std-dev: expected a value from 0 to 1000 m, got '-0.0001'"),
+    ("Robot1_Measurement.dat", MEASUREMENTS[:1] + [(0.75, 14, 1e300, 0.1)], 6,
+     "column range: expected a value from 0 to 1000 m, got '1e+300'"),
+    ("Robot1_Measurement.dat", MEASUREMENTS[:1] + [(0.75, 14, -0.5, 0.1)], 6,
+     "column range: expected a value from 0 to 1000 m, got '-0.5'"),
+    ("Robot1_Odometry.dat", ODOMETRY[:1] + [(0.5, 1e300, 0.2)] + ODOMETRY[2:], 6,
+     "column forward velocity: expected a value from -100 to 100 m/s, got '1e+300'"),
+    ("Robot1_Odometry.dat", ODOMETRY[:1] + [(0.5, 0.1, -1e300)] + ODOMETRY[2:], 6,
+     "column angular velocity: expected a value from -100 to 100 rad/s, got '-1e+300'"),
+    ("Robot1_Groundtruth.dat", GROUNDTRUTH[:3] + [(0.3, 1e300, 1.0, 0.0)], 8,
+     "column x: expected a value from -10000 to 10000 m"),
+    ("Barcodes.dat", BARCODES + [(8, 10 ** 40)], 12, "column barcode: expected a value from 0"),
     ("Barcodes.dat", BARCODES + [(8, 63)], 12, "barcode 63 listed twice"),
     ("Barcodes.dat", BARCODES[1:], 10, "no barcode for robot subject(s) [1]"),
 ])
@@ -67,10 +80,23 @@ def test_a_malformed_file_is_rejected_with_its_name_line_and_reason(tmp_path, na
                                                                      reason):
     folder = make_dataset(tmp_path / "bad", **{name: rows})
     with pytest.raises(ValueError) as err:
-        mrclam.load(folder, 1)
+        mrclam.load(folder, 1, unknown_barcodes="error")
     msg = str(err.value)
     assert isinstance(err.value, mrclam.MRCLAMFormatError)
     assert str(folder / name) in msg and f"line {line}:" in msg and reason in msg, msg
+
+
+@pytest.mark.parametrize("name", ["Robot1_Odometry.dat", "Barcodes.dat",
+                                  "Landmark_Groundtruth.dat"])
+def test_a_byte_order_mark_is_named_not_miscounted_as_columns(tmp_path, name):
+    folder = make_dataset(tmp_path / "bom")
+    path = folder / name
+    path.write_bytes(b"\xef\xbb\xbf" + path.read_bytes())      # what some editors prepend
+    with pytest.raises(mrclam.MRCLAMFormatError) as err:
+        mrclam.load(folder, 1)
+    msg = str(err.value)
+    assert str(path) in msg and "line 1:" in msg and "byte-order mark" in msg, msg
+    assert "columns" not in msg
 
 
 def test_a_missing_file_and_bad_arguments(tmp_path, folder):
@@ -83,12 +109,29 @@ def test_a_missing_file_and_bad_arguments(tmp_path, folder):
         mrclam.load(folder, 1, unknown_barcodes="keep")
 
 
-def test_unknown_barcodes_can_be_dropped_and_are_counted(tmp_path):
-    folder = make_dataset(tmp_path / "u", **{"Robot1_Measurement.dat":
-                                            MEASUREMENTS + [(1.6, 99, 2.0, 0.0)]})
-    log = mrclam.load(folder, 1, unknown_barcodes="drop")
-    assert log.meta["dropped"]["unknown_barcode_readings"] == 1
-    assert 99 not in log.camera.id
+def test_misread_barcodes_are_dropped_by_default_counted_and_warned_about_once(tmp_path):
+    misreads = [(1.6, 99, 2.0, 0.0), (1.7, 98, 2.5, 0.1), (1.8, 99, 2.0, 0.0)]
+    folder = make_dataset(tmp_path / "u", **{"Robot1_Measurement.dat": MEASUREMENTS + misreads})
+    with pytest.warns(mrclam.MRCLAMWarning) as record:
+        log = mrclam.load(folder, 1)
+    assert len(record) == 1                                    # one warning, with the count
+    msg = str(record[0].message)
+    assert "Robot1_Measurement.dat: 3 reading(s)" in msg and "[98, 99]" in msg, msg
+    assert log.dropped["unknown_barcode_readings"] == 3
+    assert log.dropped["robot_readings"] == 1
+    assert list(log.camera.id) == [63, 81]                    # the good readings all kept
+    strict = pytest.raises(mrclam.MRCLAMFormatError, match=r"line 8: unknown barcode 99")
+    with strict:
+        mrclam.load(folder, 1, unknown_barcodes="error")
+
+
+def test_a_clean_folder_loads_without_a_warning(folder):
+    import warnings
+
+    with warnings.catch_warnings():
+        warnings.simplefilter("error")
+        log = mrclam.load(folder, 1)
+    assert log.dropped["unknown_barcode_readings"] == 0
 
 
 # --------------------------------------------------------------------------- frame and content
@@ -170,7 +213,8 @@ def test_an_excerpt_is_a_verbatim_prefix_and_loads_like_its_source(tmp_path, fol
 # --------------------------------------------------------------------------- the shipped excerpt
 @pytest.fixture(scope="module")
 def excerpt_logs():
-    return {r: mrclam.load(mrclam.EXCERPT_DIR, r, unknown_barcodes="drop") for r in mrclam.ROBOTS}
+    with pytest.warns(mrclam.MRCLAMWarning, match="Robot4_Measurement.dat: 3 reading"):
+        return {r: mrclam.load(mrclam.EXCERPT_DIR, r) for r in mrclam.ROBOTS}
 
 
 def _raw(robot, kind):
@@ -182,9 +226,11 @@ def test_the_excerpt_has_all_five_robots_and_its_misread_barcode(excerpt_logs):
         assert log.enc_t[-1] - log.enc_t[0] > 100.0
         assert len(log.camera) > 50
         assert set(log.camera.id) <= set(log.world().landmarks())
-    # robot 4 reads barcode 50, which no subject carries: rejected by default
+    # robot 4 reads barcode 50, which no subject carries: dropped and counted by default,
+    # rejected on request
+    assert excerpt_logs[4].dropped["unknown_barcode_readings"] == 3
     with pytest.raises(ValueError, match=r"Robot4_Measurement.dat: line \d+: unknown barcode 50"):
-        mrclam.load(mrclam.EXCERPT_DIR, 4)
+        mrclam.load(mrclam.EXCERPT_DIR, 4, unknown_barcodes="error")
 
 
 @pytest.mark.parametrize("robot", [1, 3])

@@ -146,3 +146,25 @@ def test_landmark_placement_equals_the_filter_when_added():
         assert p.pose_error == pytest.approx(np.hypot(*early.error[-1, :2]), abs=1e-12)
     _, final = ex.map_error(tr.filter, world)
     assert all(p.error_final == pytest.approx(final[p.marker_id]) for p in rows)
+
+
+# ----------------------------------------------------------------- arguments refused (issue 24.6)
+@pytest.mark.parametrize("seeds", [[1.7, 1.2], [1, 2.0], [True], ["3"], [-1], [np.float64(3.0)]])
+def test_seeds_that_are_not_non_negative_integers_are_refused(seeds):
+    # [1.7, 1.2] became two identical runs of seed 1
+    with pytest.raises(ValueError, match="seeds"):
+        studies.monte_carlo_nees("arena_loop", "localization", seeds=seeds, step=5.0)
+
+
+@pytest.mark.parametrize("t_end", [1e6, 61.0, float("inf"), float("nan"), -1.0, 0.0, "30"])
+def test_a_grid_beyond_the_runs_or_not_a_time_is_refused(t_end):
+    # t_end=1e6 gave two million samples repeating the last value past the run's end
+    with pytest.raises(ValueError, match="t_end"):
+        studies.monte_carlo_nees("arena_loop", "localization", seeds=[1], step=5.0,
+                                 t_end=t_end)
+
+
+def test_a_grid_within_the_runs_still_works():
+    st = studies.monte_carlo_nees("arena_loop", "localization", seeds=[1, np.int64(2)],
+                                  step=5.0, t_end=59.8)
+    assert st.t[-1] == 55.0 and st.nees.shape == (2, 11) and st.seeds == (1, 2)

@@ -12,23 +12,34 @@ only if its content changed.
 
 A cell that runs longer than ``--timeout`` seconds (300) fails its notebook
 with an error naming the notebook and the cell, and the next notebook runs; the
-failed ones are listed in ``.notebooks-failed`` so that ``--failed`` (``make
-notebooks-failed``) reruns only them. The exit status is 1 if any failed.
+failed ones are listed in ``.notebooks-failed`` (one path a line) so that
+``--failed`` (``make notebooks-failed``) reruns only them. A path that is
+missing, empty, not UTF-8 or not valid JSON fails the same way, with one line
+naming it, and the others still run. The exit status is 1 if any failed.
 
-``--check`` executes without writing and fails (exit 1) if a notebook's file
-would change: CI's proof that the committed notebooks are what ``make
-notebooks`` writes. Outputs of cells tagged ``nbval-ignore-output`` (a timing,
-a widget's live view) are not compared; everything else is, byte for byte.
+A notebook is written to a temporary file beside it, which then replaces it
+(same permissions): a full disk or a crash leaves the old notebook whole.
+
+``--check`` executes without writing anything (not ``.notebooks-failed``
+either) and fails (exit 1) if a notebook's file would change: CI's proof that
+the committed notebooks are what ``make notebooks`` writes. Outputs of cells
+tagged ``nbval-ignore-output`` (a timing, a widget's live view) are not
+compared; everything else is, byte for byte.
 """
 
 from __future__ import annotations
 
+import json
 import os
+import re
+import stat
 import sys
+import tempfile
 from pathlib import Path
 
 import nbformat
 from nbclient import NotebookClient
+from nbclient.exceptions import CellExecutionError, CellTimeoutError
 
 WIDGET_MIME = "application/vnd.jupyter.widget-view+json"
 KERNELSPEC = {"display_name": "Python 3 (ipykernel)", "language": "python", "name": "python3"}
@@ -72,15 +83,68 @@ class NotebookFailed(Exception):
     """A notebook did not run to the end: which cell, and why."""
 
 
+_ANSI = re.compile(r"\x1b\[[0-?]*[ -/]*[@-~]")
+
+
+def plain(text: str) -> str:
+    """``text`` without terminal colour codes (IPython's tracebacks carry them)."""
+    return _ANSI.sub("", text)
+
+
+def read_text(path: Path) -> str:
+    """The notebook file's text, or NotebookFailed naming the file and what is wrong."""
+    try:
+        raw = path.read_bytes()
+    except FileNotFoundError:
+        raise NotebookFailed(f"{path}: no such file") from None
+    except OSError as exc:
+        raise NotebookFailed(f"{path}: cannot read it ({exc.strerror})") from None
+    if not raw.strip():
+        raise NotebookFailed(f"{path}: empty file, not a notebook")
+    try:
+        return raw.decode("utf-8")
+    except UnicodeDecodeError as exc:
+        line = raw.count(b"\n", 0, exc.start) + 1
+        raise NotebookFailed(f"{path}: line {line}: not UTF-8 (byte "
+                             f"0x{raw[exc.start]:02x})") from None
+
+
+def read_notebook(path: Path) -> nbformat.NotebookNode:
+    """The notebook at ``path``, or NotebookFailed with one line naming it and the reason."""
+    text = read_text(path)
+    try:
+        json.loads(text)
+    except json.JSONDecodeError as exc:
+        raise NotebookFailed(f"{path}: line {exc.lineno}: not valid JSON ({exc.msg})") from None
+    except (ValueError, RecursionError) as exc:
+        raise NotebookFailed(f"{path}: not valid JSON ({type(exc).__name__})") from None
+    try:
+        return nbformat.reads(text, as_version=4)
+    except Exception as exc:  # valid JSON but not a notebook
+        first = (plain(str(exc)).strip().splitlines() or [type(exc).__name__])[0]
+        raise NotebookFailed(f"{path}: not a notebook ({first})") from None
+
+
+def _reason(exc: Exception, timeout: int) -> str:
+    """One plain line saying why a notebook stopped."""
+    if isinstance(exc, CellTimeoutError):
+        return f"timed out after {timeout} s (--timeout {timeout})"
+    if isinstance(exc, CellExecutionError):
+        return plain(f"{exc.ename}: {exc.evalue}")
+    lines = plain(str(exc)).strip().splitlines()
+    return f"{type(exc).__name__}: {lines[-1] if lines else ''}".rstrip(": ")
+
+
 def run(path: Path, timeout: int = 300) -> nbformat.NotebookNode:
     """Execute one notebook (fresh kernel, its folder as working directory); return it normalised.
 
     Raises
     ------
     NotebookFailed
-        Naming the notebook and the cell (index and first line) that raised or timed out.
+        Naming the notebook and the cell (index and first line) that raised or timed
+        out, or, for a file that is not a readable notebook, what is wrong with it.
     """
-    nb = nbformat.read(path, as_version=4)
+    nb = read_notebook(path)
     client = NotebookClient(nb, timeout=timeout, kernel_name="python3", record_timing=False,
                             resources={"metadata": {"path": str(path.parent)}})
     current = {"index": None}
@@ -94,12 +158,31 @@ def run(path: Path, timeout: int = 300) -> nbformat.NotebookNode:
     except Exception as exc:  # CellExecutionError, CellTimeoutError, DeadKernelError, ...
         i = current["index"]
         first = nb.cells[i].source.splitlines()[0] if i is not None and nb.cells[i].source else ""
-        kind = type(exc).__name__
-        reason = str(exc).strip().splitlines()
-        raise NotebookFailed(f"{path}: cell {i} ({first!r}) failed: {kind}: "
-                             f"{reason[-1] if reason else ''}") from exc
+        what = _reason(exc, timeout)                  # "timed out after ..." or the error
+        what = what if isinstance(exc, CellTimeoutError) else f"failed: {what}"
+        raise NotebookFailed(plain(f"{path}: cell {i} ({first!r}) {what}")) from exc
     normalise(nb)
     return nb
+
+
+def write_atomic(path: Path, text: str) -> None:
+    """Replace ``path`` by ``text`` through a temporary file beside it (same permissions):
+    the file is either the old one or the new one, never cut."""
+    mode = stat.S_IMODE(path.stat().st_mode)
+    fd, tmp = tempfile.mkstemp(dir=path.parent, prefix=f".{path.name}.", suffix=".tmp")
+    try:
+        with os.fdopen(fd, "w", encoding="utf-8") as f:
+            f.write(text)
+            f.flush()
+            os.fsync(f.fileno())
+        os.chmod(tmp, mode)
+        os.replace(tmp, path)
+    except BaseException:
+        try:
+            os.unlink(tmp)
+        except FileNotFoundError:
+            pass
+        raise
 
 
 def comparable(text: str) -> str:
@@ -117,13 +200,17 @@ def execute(path: Path, timeout: int = 300, check: bool = False) -> bool:
     With ``check`` nothing is written and the outputs of cells tagged
     ``nbval-ignore-output`` are not compared.
     """
+    old = read_text(path)
     new = nbformat.writes(run(path, timeout)) + "\n"
-    old = path.read_text(encoding="utf-8")
     if check:
         return comparable(new) != comparable(old)
     if new == old:
         return False
-    path.write_text(new, encoding="utf-8")
+    try:
+        write_atomic(path, new)
+    except OSError as exc:
+        raise NotebookFailed(f"{path}: not written ({exc.strerror or exc}); the file is as it "
+                             f"was") from None
     return True
 
 
@@ -144,7 +231,8 @@ def main(argv: list[str]) -> int:
         if not FAILED_LIST.exists():
             print(f"{FAILED_LIST}: no failed notebooks recorded")
             return 0
-        paths += [Path(line) for line in FAILED_LIST.read_text().split() if line]
+        paths += [Path(line) for line in FAILED_LIST.read_text(encoding="utf-8").splitlines()
+                  if line.strip()]
     if not paths:
         ap.print_help()
         return 2
@@ -161,8 +249,10 @@ def main(argv: list[str]) -> int:
         word = ("would change" if differs else "reproduced") if args.check else (
             "rewritten" if differs else "unchanged")
         print(f"{p}: {word}", flush=True)
-    if failed:
-        FAILED_LIST.write_text("".join(f"{p}\n" for p in failed))
+    if failed and args.check:
+        print(f"{len(failed)} notebook(s) failed")
+    elif failed:
+        FAILED_LIST.write_text("".join(f"{p}\n" for p in failed), encoding="utf-8")
         print(f"{len(failed)} notebook(s) failed; rerun only them: make notebooks-failed")
     elif FAILED_LIST.exists() and not args.check:
         FAILED_LIST.unlink()

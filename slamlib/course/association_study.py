@@ -33,6 +33,7 @@ from ..ekf import EKFSLAM
 from ..metrics import ate
 from ..runs import Run
 from ..studies import map_jobs
+from ..worlds import DATA_DIR
 from .stored import load_stored
 
 __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_errors",
@@ -43,7 +44,7 @@ __all__ = ["run_without_ids", "make_filter", "AssociationScore", "association_er
            "DENSE_PATH", "DENSE_SETTINGS"]
 
 #: Where ``make association-study`` stores the Monte-Carlo of chapter 09.
-STUDY_PATH = Path(__file__).resolve().parents[2] / "data" / "studies" / "association_study.json"
+STUDY_PATH = DATA_DIR / "studies" / "association_study.json"
 #: The study's settings: the arena re-simulated with clutter, the first 30 s (first lap).
 STUDY_SETTINGS = {"scenario": "arena_loop", "p_outlier": 0.1, "max_time": 30.0,
                   "seeds": list(range(2000, 2100)), "methods": ["ids", "nn", "jcbb"]}

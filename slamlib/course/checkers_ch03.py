@@ -1,6 +1,7 @@
-"""Chapter 03's exercise checker: the direct observation's Jacobians H_pose, H_landmark.
+"""Chapter 03's exercise checkers: the direct observation's Jacobians H_pose, H_landmark,
+and the prediction of the NEES of a filter whose R is too large.
 
-The verdicts follow :mod:`slamlib.course.harness`.
+The verdicts follow :mod:`slamlib.course.harness` and :mod:`slamlib.course.predictions`.
 """
 
 from __future__ import annotations
@@ -10,7 +11,25 @@ import numpy as np
 from ..checks import compare_jacobians, numerical_jacobian
 from .harness import attempt, name_of, printer
 
-__all__ = ["check_observation_jacobians"]
+__all__ = ["check_observation_jacobians", "check_nees_prediction"]
+
+
+# every entry of the two Jacobians: what it differentiates, and its value (dx = x_F - x,
+# dy = y_F - y, q = dx^2 + dy^2), for the hint on an entry no other hint explains
+_ENTRIES = {
+    "H_pose": (
+        (("d range / d x", "-dx/sqrt(q): moving towards the marker shortens the range"),
+         ("d range / d y", "-dy/sqrt(q)"),
+         ("d range / d theta", "0: turning in place does not change the distance")),
+        (("d bearing / d x", "dy/q"),
+         ("d bearing / d y", "-dx/q"),
+         ("d bearing / d theta", "-1")),
+    ),
+    "H_landmark": (
+        (("d range / d x_F", "dx/sqrt(q)"), ("d range / d y_F", "dy/sqrt(q)")),
+        (("d bearing / d x_F", "-dy/q"), ("d bearing / d y_F", "dx/q")),
+    ),
+}
 
 
 def _random_observation_points(n: int, seed: int):
@@ -121,6 +140,20 @@ def check_observation_jacobians(fn, n_points: int = 6, seed: int = 3,
                 hints.append("the bearing row divides by q = dx^2 + dy^2, not by sqrt(q) "
                              "(the report's second H has dy/sqrt(q)).")
                 break
+        for r, k in [key for key in wrong_p if key[0] == 0] + [key for key in wrong_l
+                                                                if key[0] == 0]:
+            g, e = wrong_p.get((r, k)) or wrong_l[(r, k)]
+            if e != 0.0 and np.isclose(abs(g) * np.sqrt(q), abs(e), rtol=1e-4):
+                hints.append("the range row is [dx/sqrt(q), dy/sqrt(q)] for the landmark "
+                             "(d sqrt(q) / d x_F = dx / sqrt(q)): yours divides by q.")
+                break
+        if not hints:
+            named = [("H_pose", key, flipped(wrong_p, key)) for key in wrong_p]
+            named += [("H_landmark", key, flipped(wrong_l, key)) for key in wrong_l]
+            for which, (r, k), sign in named[:2]:
+                what, formula = _ENTRIES[which][r][k]
+                hints.append(f"{which}[{r},{k}] = {what} = {formula}"
+                             + (" (yours has the opposite sign)." if sign else "."))
         if not hints:
             hints.append("with dx = x_F - x, dy = y_F - y: range = sqrt(q), bearing = "
                          "atan2(dy, dx) - theta; H_landmark is minus the first two columns "
@@ -131,3 +164,44 @@ def check_observation_jacobians(fn, n_points: int = 6, seed: int = 3,
     say(f"{name}: correct. H_pose and H_landmark match finite differences at {len(pts)} "
         "points, one with a bearing near pi.")
     return True
+
+
+# --------------------------------------------------------------------------- predict, then measure
+_WHY_R_TOO_LARGE = (
+    "A covariance four times too large on the readings makes P too large, so the NEES "
+    "e^T P^-1 e falls below 3. But not by four: P is not made of R alone. Between frames the "
+    "odometry's Q adds the same uncertainty as before, and the estimate's error hardly changes "
+    "(the ATE is the same to 0.2 mm), so the NEES lands between 3/4 (if P were all R) and 3 "
+    "(if it were all Q). Part of the measured drop is the gate: with R this large it rejects "
+    "almost no reading, and the censoring that added about 0.24 to the NEES with the right R "
+    "(section 5) is gone.")
+
+
+def check_nees_prediction(answer, verbose: bool = True) -> bool:
+    """The student's prediction of the mean pose NEES of the map-based EKF told that the
+    camera is twice as noisy as it is (R four times too large), chapter 03, section 7.
+
+    Measured on the stored 100-seed study ``arena_localization`` (its ``assumed/2`` part,
+    gate 0.95); a justified prediction is 0.75 to 2.9 (between 3/4 and 3, the argument's
+    bounds, 3 itself excluded: R is part of P). The range and the argument are printed
+    only once an answer is given (:func:`slamlib.course.predictions.check_prediction`).
+    """
+    from . import evidence
+    from .predictions import check_prediction
+
+    def measure():
+        study = evidence.load_study("arena_localization")
+
+        def per_run(part):
+            return evidence.column(study, part, "nees_sum") / evidence.column(study, part, "n")
+
+        right, twice = per_run("clean/0.95"), per_run("assumed/2")
+        half = 1.96 * twice.std(ddof=1) / np.sqrt(twice.size)
+        rej = (evidence.column(study, "assumed/2", "rejected").sum()
+               / evidence.column(study, "assumed/2", "gated").sum())
+        return twice.mean(), (f"mean pose NEES over {twice.size} stored seeded runs, gate 0.95, "
+                              f"interval +- {half:.2f}, {rej:.1%} of the readings rejected; "
+                              f"with the right R {right.mean():.2f}")
+
+    return check_prediction(answer, measure, accept=(0.75, 2.9), why=_WHY_R_TOO_LARGE,
+                            name="average NEES with R too large", verbose=verbose)

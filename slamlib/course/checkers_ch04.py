@@ -1,6 +1,7 @@
-"""Chapter 04's exercise checker: the inverse observation's Jacobians J1, J2.
+"""Chapter 04's exercise checkers: the inverse observation's Jacobians J1, J2, and the
+prediction of what a second reading of a new landmark does to the robot's uncertainty.
 
-The verdicts follow :mod:`slamlib.course.harness`.
+The verdicts follow :mod:`slamlib.course.harness` and :mod:`slamlib.course.predictions`.
 """
 
 from __future__ import annotations
@@ -11,7 +12,20 @@ from ..checks import compare_jacobians, numerical_jacobian
 from ..models import inverse_observe
 from .harness import attempt, name_of, printer
 
-__all__ = ["check_inverse_observation_jacobians"]
+__all__ = ["check_inverse_observation_jacobians", "check_second_reading_prediction",
+           "SECOND_READING_CHOICES"]
+
+
+# the nonzero entries of J1 = dg/d[x, y, theta] and J2 = dg/d[rho, beta] of
+# g = x_B (+) p(z): what each differentiates and its value, for the hints on a slip
+# (here and in :func:`slamlib.course.filter_checkers.check_augment`)
+J1_ENTRIES = {(0, 0): ("d x_F / d x", "1"), (1, 1): ("d y_F / d y", "1"),
+              (0, 2): ("d x_F / d theta", "-rho sin(theta + beta)"),
+              (1, 2): ("d y_F / d theta", "rho cos(theta + beta)")}
+J2_ENTRIES = {(0, 0): ("d x_F / d rho", "cos(theta + beta)"),
+              (1, 0): ("d y_F / d rho", "sin(theta + beta)"),
+              (0, 1): ("d x_F / d beta", "-rho sin(theta + beta)"),
+              (1, 1): ("d y_F / d beta", "rho cos(theta + beta)")}
 
 
 def _random_inverse_observation_points(n: int, seed: int):
@@ -93,6 +107,10 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
                 hints.append("your J2 is transposed: its COLUMNS must be d/d rho and d/d beta "
                              "(the report stacks them as rows, [d/d rho, d/d theta]^T).")
             else:
+                for r, c, g, e in c2.wrong[:2]:
+                    what, formula = J2_ENTRIES[r, c]
+                    sign = " (yours has the opposite sign)" if np.isclose(g, -e) else ""
+                    hints.append(f"J2[{r},{c}] = {what} = {formula}{sign}.")
                 hints.append("J2 = R(theta) times the polar Jacobian "
                              "[[cos b, -rho sin b], [sin b, rho cos b]] (chain rule).")
         for h in hints:
@@ -100,3 +118,87 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
         return False
     say(f"{name}: correct. J1 and J2 match finite differences at {n_points} random points.")
     return True
+
+
+# --------------------------------------------------------------------------- predict, then measure
+SECOND_READING_CHOICES = ("shrinks a lot", "shrinks a little", "stays the same", "grows")
+
+_WHY_SECOND_READING = (
+    "The landmark was computed from the robot: m = g(x_B, z1). Linearised, the second reading "
+    "is z2 = H_pose dx_B + H_landmark dm + v2 with dm = J1 dx_B + J2 v1, and H_pose + "
+    "H_landmark J1 = 0 (h(x_B, g(x_B, z)) = z for every pose). So z2 = H_landmark J2 v1 + v2 "
+    "depends on the two readings' noise only, not on the robot: it says nothing about the "
+    "pose, and with the cross-covariances the filter knows it. Without them it believes the "
+    "landmark is independent of the robot and 'learns' a pose it was never told. (The "
+    "cancellation needs both Jacobians at the same estimate, as here. In a running filter the "
+    "pose estimate moves between the landmark's creation and its next reading, the cancellation "
+    "fails and the filter gains heading information it does not have: chapter 06, First-"
+    "Estimates Jacobians.)")
+
+_R_SECOND = np.diag([0.05 ** 2, np.radians(2.0) ** 2])   # chapter 04's R: 5 cm, 2 degrees
+
+
+def _random_prior(rng):
+    """A random pose and two landmarks with a random correlated covariance (cm, degrees)."""
+    x = np.concatenate([rng.uniform(-2, 2, 2), [rng.uniform(-np.pi, np.pi)],
+                        rng.uniform(-3, 3, 4)])
+    sd = np.concatenate([rng.uniform(0.01, 0.05, 2), [np.radians(rng.uniform(1, 5))],
+                         rng.uniform(0.02, 0.1, 4)])
+    M = rng.normal(size=(7, 7))
+    C = M @ M.T + 3 * np.eye(7)
+    C /= np.sqrt(np.outer(np.diag(C), np.diag(C)))
+    return x, C * np.outer(sd, sd)
+
+
+def heading_sigma_ratio(x, P, z, R, drop: bool) -> float:
+    """Augment the state with the reading ``z``, optionally drop the new landmark's
+    cross-covariances, update with ``z`` again from the same pose: the robot's heading sigma
+    after the update over before it (chapter 04, section 5)."""
+    from .. import ekf_textbook as tb
+    from ..models import observation_jacobians, observe
+
+    xa, Pa = tb.augment(x, P, z, R)
+    n = x.size
+    if drop:
+        Pa[n:, :n] = 0.0
+        Pa[:n, n:] = 0.0
+    Hp, Hl = observation_jacobians(xa[:3], xa[n:])
+    H = tb.stacked_jacobian(n + 2, [n], [Hp], [Hl])
+    h = observe(xa[:3], xa[n:])[None, :]
+    _, P1 = tb.joint_update(xa, Pa, h, h, H, R)
+    return float(np.sqrt(P1[2, 2] / Pa[2, 2]))
+
+
+def measure_second_reading(n_runs: int = 100, seed: int = 12):
+    """The second reading's effect on the heading sigma over ``n_runs`` seeded random SLAM
+    states, with and without the cross-covariances: ``(choice, text)`` for the prediction."""
+    rng = np.random.default_rng(seed)
+    kept, dropped = [], []
+    for _ in range(n_runs):
+        x, P = _random_prior(rng)
+        z = np.array([rng.uniform(0.5, 4.0), rng.uniform(-0.5, 0.5)])
+        kept.append(heading_sigma_ratio(x, P, z, _R_SECOND, drop=False))
+        dropped.append(heading_sigma_ratio(x, P, z, _R_SECOND, drop=True))
+    kept, dropped = np.array(kept), np.array(dropped)
+    worst = np.abs(kept - 1).max()
+    choice = ("stays the same" if worst < 1e-6 else "grows" if kept.max() > 1
+              else "shrinks a lot" if np.median(kept) < 0.9 else "shrinks a little")
+    change = "less than 1e-12" if worst < 1e-12 else f"at most {worst:.1e}"
+    return choice, (f"{n_runs} seeded random states: kept, the heading sigma changes by "
+                    f"{change} (relative, round-off); dropped, it shrinks in "
+                    f"{np.sum(dropped < 1)} of them, by {100 * (1 - np.median(dropped)):.0f} % "
+                    f"in the median and by up to {100 * (1 - dropped.min()):.0f} %")
+
+
+def check_second_reading_prediction(answer, verbose: bool = True) -> bool:
+    """The student's prediction (one of :data:`SECOND_READING_CHOICES`) of what a second
+    reading of a just-mapped landmark, from the same pose, does to the robot's heading sigma
+    when the cross-covariances are kept (chapter 04, section 5). Measured by
+    :func:`measure_second_reading`; the accepted answer and the argument are printed only
+    once an answer is given."""
+    from .predictions import check_prediction
+
+    return check_prediction(answer, measure_second_reading, accept={"stays the same"},
+                            why=_WHY_SECOND_READING,
+                            name="heading sigma after the second reading",
+                            choices=SECOND_READING_CHOICES, verbose=verbose)

@@ -1,4 +1,8 @@
-"""Chapter 07's exercise checker: is a point inside the camera's field of view.
+"""Chapter 07's exercise checkers: where a return goes, and is a point in view.
+
+:func:`check_return_waypoints` (the chapter's exercise) checks the two goals of a
+return to a landmark; :func:`check_in_field_of_view` (a "more to try") the
+field-of-view test.
 
 The verdicts follow :mod:`slamlib.course.harness`.
 """
@@ -10,7 +14,7 @@ import numpy as np
 from ..models import wrap_angle
 from .harness import attempt, name_of, printer
 
-__all__ = ["check_in_field_of_view"]
+__all__ = ["check_in_field_of_view", "check_return_waypoints", "return_waypoint_cases"]
 
 
 def _random_view_cases(n: int, seed: int):
@@ -108,4 +112,108 @@ def check_in_field_of_view(fn, n_cases: int = 12, seed: int = 7, verbose: bool =
         return False
     say(f"{name}: correct. Right for {sum(len(g) for g in got_all)} points around "
         f"{n_cases} poses, including headings near +-pi.")
+    return True
+
+
+# --------------------------------------------------------------------------- where a return goes
+def _clamp(p, inner):
+    x0, x1, y0, y1 = inner
+    return np.array([min(max(p[0], x0), x1), min(max(p[1], y0), y1)])
+
+
+def _waypoints(landmark, sightings, distance, approach, inner, *, normalise=True, sign=1.0,
+               angles=False):
+    """The two goals of a return, as the chapter describes them (and the usual slips)."""
+    u = np.asarray(sightings, dtype=float)
+    if angles:                                     # the mean of the angles, not of the vectors
+        a = np.mean(np.arctan2(u[:, 1], u[:, 0]))
+        side = np.array([np.cos(a), np.sin(a)])
+    else:
+        side = u.mean(axis=0)
+        if normalise:
+            side = side / np.hypot(*side)
+    side = sign * side
+    view = _clamp(landmark + distance * side, inner)
+    d = landmark - view
+    closer = _clamp(view + approach * d / np.hypot(*d), inner)
+    return np.array([view, closer])
+
+
+def return_waypoint_cases(n: int = 10, seed: int = 5):
+    """Seeded cases ``(landmark, sightings, distance, approach, inner)``: sightings spread
+    around a side (some around the -x direction, where angles jump at +-pi), some landmarks
+    near the border (the goals must be clamped)."""
+    rng = np.random.default_rng(seed)
+    inner = (0.5, 7.5, -3.5, 3.5)
+    for c in range(n):
+        if c % 3 == 0:
+            side = np.pi * rng.choice([-1.0, 1.0]) + rng.uniform(-0.2, 0.2)   # around -x
+        else:
+            side = rng.uniform(-np.pi, np.pi)
+        k = int(rng.integers(3, 15))
+        ang = side + rng.uniform(-0.6, 0.6, k)
+        sightings = np.column_stack([np.cos(ang), np.sin(ang)])
+        if c % 4 == 1:                                  # near the border: clamping matters
+            lm = np.array([rng.choice([0.7, 7.3]), rng.uniform(-3.0, 3.0)])
+        else:
+            lm = np.array([rng.uniform(2.0, 6.0), rng.uniform(-2.0, 2.0)])
+        yield lm, sightings, 1.5, 0.3, inner
+
+
+def check_return_waypoints(fn, n_cases: int = 10, seed: int = 5, verbose: bool = True) -> bool:
+    """Check a student's ``fn(landmark, sightings, distance, approach, inner) -> (2, 2)``.
+
+    The two goals of a return to ``landmark`` (2,): ``view``, ``distance`` from it on the
+    side it was seen from (the mean of the unit vectors ``sightings`` (k, 2), from the
+    landmark towards the robot, normalised), then ``closer``, ``approach`` from ``view``
+    towards the landmark; each clamped to ``inner = (xmin, xmax, ymin, ymax)``. Computed
+    here at seeded cases (:func:`return_waypoint_cases`); hints for a mean not normalised,
+    the side reversed, the mean of the angles (wrong where they jump at +-pi), goals not
+    clamped, and an approach away from the landmark.
+    """
+    say = printer(verbose)
+    name = name_of(fn)
+    for lm, u, dist, appr, inner in return_waypoint_cases(n_cases, seed):
+        out = attempt(fn, lm.copy(), u.copy(), dist, appr, inner, say=say)
+        if out is None:
+            return False
+        try:
+            got = np.asarray(out, dtype=float)
+        except (TypeError, ValueError):
+            say(f"{name}: expected a (2, 2) array [view, closer], got {type(out).__name__}.")
+            return False
+        if got.shape != (2, 2):
+            say(f"{name}: expected a (2, 2) array [view, closer], got shape {got.shape}.")
+            return False
+        want = _waypoints(lm, u, dist, appr, inner)
+        if np.allclose(got, want, atol=1e-9):
+            continue
+        say(f"{name}: wrong for the landmark at {np.round(lm, 2).tolist()} seen in {len(u)} "
+            f"frames: got {np.round(got, 3).tolist()}, expected {np.round(want, 3).tolist()}.")
+        slips = [
+            ({"normalise": False}, "the mean of unit vectors is shorter than 1 when they "
+             "spread: normalise it, or the view point is closer than `distance`"),
+            ({"sign": -1.0}, "the sightings point from the landmark TOWARDS the robot: the view "
+             "point is landmark + distance * side, on the printed side, not behind the marker"),
+            ({"angles": True}, "you averaged the angles: directions around -x have angles near "
+             "+pi and -pi, whose mean points the other way. Average the unit vectors"),
+        ]
+        for kw, why in slips:
+            if np.allclose(got, _waypoints(lm, u, dist, appr, inner, **kw), atol=1e-9):
+                say(f"  Hint: {why}.")
+                break
+        else:
+            unclamped = _waypoints(lm, u, dist, appr, (-np.inf, np.inf, -np.inf, np.inf))
+            if np.allclose(got, unclamped, atol=1e-9):
+                say("  Hint: both goals must be kept inside `inner` (clamp x and y), or a "
+                    "landmark near the border sends the robot out of the world.")
+            elif np.allclose(got[0], want[0], atol=1e-9):
+                say("  Hint: the view point is right; `closer` moves `approach` metres from "
+                    "it TOWARDS the landmark (the unit vector landmark - view), then is clamped.")
+            else:
+                say("  Hint: side = mean of the sightings, normalised; view = clamp(landmark + "
+                    "distance * side); closer = clamp(view + approach * unit(landmark - view)).")
+        return False
+    say(f"{name}: correct. The two goals match at {n_cases} returns, some with sightings "
+        f"around -x and some near the border.")
     return True

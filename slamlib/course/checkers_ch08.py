@@ -10,8 +10,32 @@ import operator
 import numpy as np
 
 from .harness import attempt, matching_mistakes, name_of, printer
+from .predictions import check_prediction
 
-__all__ = ["check_history_index"]
+__all__ = ["check_history_index", "check_doubled_latency", "DOUBLED_LATENCY_ACCEPT",
+           "WHY_DOUBLED_LATENCY"]
+
+#: The answers a good argument leads to (degrees): kept here, not in the notebook, so that
+#: the question does not show its answer above the cell that asks for it.
+DOUBLED_LATENCY_ACCEPT = (25.0, 33.0)
+#: The argument, printed once the student has committed to a number.
+WHY_DOUBLED_LATENCY = (
+    "To first order the error is (omega - v sin(beta)/rho) * delay: linear in the delay, so "
+    "twice the delay gives about twice the error, 2 x 15.8 = 31.6 deg. It comes out somewhat "
+    "less because the fastest turn does not last the whole 0.6 s: averaged over a longer window "
+    "the turn rate is lower (the second-order terms of section 1).")
+
+
+def check_doubled_latency(prediction, measure, verbose: bool = True) -> bool:
+    """Chapter 08's predict-then-measure: the largest bearing error of a frame 0.6 s late.
+
+    ``prediction`` is the student's number (degrees) or None; ``measure() -> (value, text)``
+    re-simulates the drive (run only once a prediction is written). The accepted range is
+    :data:`DOUBLED_LATENCY_ACCEPT`; the argument :data:`WHY_DOUBLED_LATENCY` is printed in
+    any case (:func:`slamlib.course.predictions.check_prediction`).
+    """
+    return check_prediction(prediction, measure, DOUBLED_LATENCY_ACCEPT, WHY_DOUBLED_LATENCY,
+                            name="largest bearing error at 0.6 s", unit="deg", verbose=verbose)
 
 
 def _history_cases(seed: int):
@@ -86,6 +110,6 @@ def check_history_index(fn, seed: int = 8, verbose: bool = True) -> bool:
                             "(0 if the frame is older than all of them, len(times) if newer)"]:
             say(f"  Hint: {why}.")
         return False
-    say(f"{name}: correct. Right place at {len(cases)} capture times, with ties, an empty "
-        "history and frames older or newer than every event.")
+    say(f"{name}: correct. Right place at {len(cases)} capture times,")
+    say("  with ties, an empty history and frames older or newer than every event.")
     return True

@@ -23,6 +23,11 @@ Studies (:data:`STUDIES`):
 - ``explore_world5``: chapter 07's closed-loop exploration, simulation seeds
   1-100 (seed 5 is the chapter's run): the NEES and the largest heading error
   in units of its sigma.
+- ``arena_sign_error``: the map-based EKF (chapter 03, section 6) with the
+  library's ``H`` and with the report's printed ``H_pose`` (the sign error in
+  ``[1, 1]``, :class:`BrokenReportHLocalization`) on ``arena_loop``, seeds
+  1-100, started at the truth and started lost (a start error drawn from the
+  filter's own :data:`LOST_P0`).
 - ``arena_camera``: the map-based EKF fed by the rendered camera
   (:class:`slamlib.vision.CameraMarkerSensor`, chapters 02 and 03): the lagged
   correlation of the readings' errors and the NEES with the camera's R,
@@ -53,7 +58,8 @@ __all__ = ["EVIDENCE_DIR", "FORMAT", "STUDIES", "SEEDS", "GRID_STEP", "GATES",
            "CAMERA_VARIANTS", "CAMERA_LAGS", "ModelRLocalization", "decimate", "trace_stats",
            "gate_stats", "localization_seed", "slam_seed", "camera_run", "camera_seed",
            "error_correlation", "run_study", "save_study", "load_study", "column", "rank",
-           "pooled_correlation", "nees_study", "explore_seed", "slam_misreads_seed"]
+           "pooled_correlation", "nees_study", "explore_seed", "slam_misreads_seed",
+           "BrokenReportHLocalization", "LOST_P0", "sign_error_seed"]
 
 #: Where the stored studies live.
 EVIDENCE_DIR = DATA_DIR / "evidence"
@@ -71,6 +77,8 @@ CAMERA_VARIANTS = (("R", 1.0, 1), ("R x1.5^2", 1.5, 1), ("R x2^2", 2.0, 1), ("R 
                    ("every 10th frame", 1.0, 10), ("R x1.5^2, every 3rd", 1.5, 3))
 #: Lags (camera frames, 0.1 s each) of the error autocorrelation.
 CAMERA_LAGS = tuple(range(1, 11))
+#: The lost robot's prior (chapter 03, section 6): 0.5 m in x and y, 0.02 rad in heading.
+LOST_P0 = np.diag([0.5 ** 2, 0.5 ** 2, 0.02 ** 2])
 
 
 def _key(gate) -> str:
@@ -100,6 +108,18 @@ class ModelRLocalization(EKFLocalization):
         if R is not None and self.factor != 1.0:
             R = self.factor ** 2 * np.asarray(R, dtype=float)
         return super().update(ids, z, R)
+
+
+class BrokenReportHLocalization(EKFLocalization):
+    """BROKEN ON PURPOSE, for demonstration only (chapter 03, section 6): the map-based EKF
+    with the report's printed ``H_pose``, whose entry ``[1, 1]`` has the wrong sign. It
+    overrides the one method that gives ``update`` its readings' predictions and
+    Jacobians; everything else is the library's filter, which is not changed."""
+
+    def reading_model(self, pose, positions):
+        h, H_pose, H_landmark = super().reading_model(pose, positions)
+        H_pose[:, 1, 1] = -H_pose[:, 1, 1]          # the report's +dx/q
+        return h, H_pose, H_landmark
 
 
 def decimate(run: Run, every: int, rate: float = 10.0) -> Run:
@@ -216,6 +236,28 @@ def localization_seed(seed: int) -> dict:
     return out
 
 
+def sign_error_seed(seed: int) -> dict:
+    """The library's map-based EKF and :class:`BrokenReportHLocalization` on one seed of
+    ``arena_loop`` (gate 0.95), each started at the true pose with ``DEFAULT_P0``
+    (``tracking/...``) and started lost, at the true pose plus an error drawn from
+    :data:`LOST_P0` with generator seed ``1000 + seed``, with ``P0 = LOST_P0``
+    (``lost/...``): :func:`trace_stats` and :func:`gate_stats` of each;
+    ``lost/start_error`` is the error drawn."""
+    from ..sim import scenario
+
+    run = scenario("arena_loop", seed=seed)
+    e0 = np.random.default_rng(1000 + seed).multivariate_normal(np.zeros(3), LOST_P0)
+    out = {"lost/start_error": [float(v) for v in e0]}
+    for start, x0, P0 in (("tracking", run.start_pose, DEFAULT_P0),
+                          ("lost", run.start_pose + e0, LOST_P0)):
+        for name, cls in (("library", EKFLocalization), ("report", BrokenReportHLocalization)):
+            f = cls(x0, P0, run.Q(), run.sensor().R(2.0), run.world().landmarks(),
+                    wheel_base=run.wheel_base, gate=0.95)
+            tr = run_filter(run, f)
+            out[f"{start}/{name}"] = {**trace_stats(tr), **gate_stats(tr)}
+    return out
+
+
 def slam_seed(seed: int) -> dict:
     """EKF SLAM (gate 0.95) on ``arena_loop`` with ``seed``: :func:`trace_stats` with series."""
     from ..runner import slam
@@ -327,7 +369,8 @@ def explore_seed(seed: int) -> dict:
 
 
 # --------------------------------------------------------------------------- studies and files
-STUDIES = {"arena_localization": localization_seed, "arena_slam": slam_seed,
+STUDIES = {"arena_localization": localization_seed, "arena_sign_error": sign_error_seed,
+           "arena_slam": slam_seed,
            "arena_slam_misreads": slam_misreads_seed,
            "arena_camera": camera_seed, "explore_world5": explore_seed}
 

@@ -37,6 +37,7 @@ from ..models import (
     observe,
     wrap_angle,
 )
+from .checkers_ch04 import J1_ENTRIES, J2_ENTRIES
 from .harness import attempt, call, name_of, not_ready, printer
 
 __all__ = ["check_predict_covariance", "check_stacked_jacobian", "check_joint_update",
@@ -147,7 +148,12 @@ def _block_report(got: np.ndarray, want: np.ndarray, n_old: int | None = None) -
                               ("the robot-map strip P_rm", slice(0, 3), slice(3, n)),
                               ("its mirror P_mr", slice(3, n), slice(0, 3)),
                               ("the map block P_mm", slice(3, n), slice(3, n)),
-                              ("the new landmark's rows", slice(n, None), slice(None)),
+                              ("P_Lx[:, :3] (the new landmark with the robot)",
+                               slice(n, None), slice(0, 3)),
+                              ("P_Lx[:, 3:] (with the old landmarks)", slice(n, None),
+                               slice(3, n)),
+                              ("P_LL (the new landmark's own block)", slice(n, None),
+                               slice(n, None)),
                               ):
         g, w = got[rows, cols], want[rows, cols]
         if g.size and not np.allclose(g, w, rtol=1e-9, atol=1e-9):
@@ -534,7 +540,28 @@ def _augment_mistakes(fn, x, P, z, R, wx, wP, n):
                  "argument R (the reading's noise): use the function's R"] = (
             lambda v=v: _augment(x, P, z, v))
 
+    def with_jacobians(J1_, J2_):
+        PLx = J1_ @ P[:3, :]
+        return with_new(PLx=PLx, PLL=J1_ @ P[:3, :3] @ J1_.T + J2_ @ R @ J2_.T)
+
+    for (r, c), (what, formula) in J1_ENTRIES.items():
+        if J1[r, c] == 0.0:
+            continue
+        slip = J1.copy()
+        slip[r, c] = -slip[r, c]
+        mistakes[f"J1[{r},{c}] has the wrong sign: J1[{r},{c}] = {what} = {formula} "
+                 "(chapter 04, section 3)"] = lambda slip=slip: with_jacobians(slip, J2)
+    for c in (0, 1):
+        # with a diagonal R, J2 R J2^T cannot tell which entry of a column has its sign
+        # flipped: the hint names both
+        slip = J2.copy()
+        slip[0, c] = -slip[0, c]
+        both = "; ".join(f"J2[{r},{c}] = {J2_ENTRIES[r, c][0]} = {J2_ENTRIES[r, c][1]}"
+                         for r in (0, 1))
+        mistakes[f"one sign in J2's column {c} is wrong ({both}; chapter 04, section 3)"] = (
+            lambda slip=slip: with_jacobians(J1, slip))
     return mistakes
+
 
 
 def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) -> bool:

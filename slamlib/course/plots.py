@@ -23,6 +23,9 @@ __all__ = ["FIGSIZE", "DPI", "TRUTH_STYLE", "ESTIMATE_STYLE", "world_axes", "fin
 #: Default size (inches) and resolution of the course's figures (small PNGs in the notebooks).
 FIGSIZE = (6.4, 4.8)
 
+#: A figure shows at FIGSIZE x DPI pixels; in a notebook its PNG holds twice as many pixels per
+#: side (:func:`slamlib.course.inline_figures.sharp_inline_figures`), sharp on high-resolution
+#: screens and when the web edition scales it down to its column.
 DPI = 80
 
 TRUTH_STYLE = {"color": "tab:red", "lw": 1.6, "label": "ground truth"}
@@ -261,7 +264,7 @@ def finish_top_view(ax, title: str | None = None, legend_outside: bool = False):
     if legend_outside:
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     else:
-        ax.legend(loc="best", fontsize=7)
+        ax.legend(loc="best", fontsize=8)
     if title:
         ax.set_title(title)
     return ax

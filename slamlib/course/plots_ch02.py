@@ -9,15 +9,15 @@ import numpy as np
 
 from .plots import DPI, plot_robot, plot_world, world_axes
 
-__all__ = ["plot_camera_mount", "plot_camera_view", "plot_error_study", "plot_detection_scene",
-           "plot_error_autocorrelation"]
+__all__ = ["plot_camera_mount", "plot_camera_view", "plot_detections", "plot_error_study",
+           "plot_detection_scene", "plot_error_autocorrelation"]
 
 
 def _axis_arrow(ax, origin, direction, label, color, length=0.1):
     o = np.asarray(origin, dtype=float)
     e = o + length * np.asarray(direction, dtype=float)
     ax.annotate("", xy=e, xytext=o, arrowprops={"arrowstyle": "-|>", "color": color, "lw": 1.6})
-    ax.annotate(label, e, textcoords="offset points", xytext=(3, 3), color=color, fontsize=9)
+    ax.annotate(label, e, textcoords="offset points", xytext=(3, 3), color=color, fontsize=11)
 
 def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height: float = 0.15,
                       axes=None):
@@ -32,15 +32,16 @@ def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height
     T = cam.T_base_cam
     R, t = T[:3, :3], T[:3, 3]
     if axes is None:
-        _, axes = plt.subplots(1, 2, figsize=(9.0, 4.0), dpi=DPI)
+        _, axes = plt.subplots(1, 2, figsize=(9.0, 4.0), dpi=DPI,
+                               gridspec_kw={"width_ratios": [1.0, 1.3]})
     top, side = axes
     # top view (x_B, y_B)
     top.add_patch(plt.Circle((0, 0), robot_radius, fc="0.9", ec="0.4"))
     _axis_arrow(top, (0, 0), (1, 0), "$x_B$", "tab:red")
     _axis_arrow(top, (0, 0), (0, 1), "$y_B$", "tab:green")
     top.plot(0, 0, "kx")
-    top.annotate("$z_B$ into the page", (0, 0), textcoords="offset points", xytext=(-60, -14),
-                 fontsize=8)
+    top.annotate("$z_B$ into the page", (0, 0), textcoords="offset points", xytext=(-4, 8),
+                 ha="right", fontsize=9)
     _axis_arrow(top, t[:2], R[:2, 2], "$z_C$", "tab:blue", 0.08)
     _axis_arrow(top, t[:2], R[:2, 0], "$x_C$", "tab:purple", 0.08)
     top.plot(*t[:2], "o", color="tab:blue", ms=5)
@@ -55,7 +56,8 @@ def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height
     # side view (x_B, z_B), z down
     h = cam.base_height
     side.axhline(h, color="0.3", lw=2)
-    side.annotate("floor", (-0.2, h), textcoords="offset points", xytext=(0, -12), fontsize=8)
+    side.annotate("floor", (0.42, h), textcoords="offset points", xytext=(-2, 3), ha="right",
+                  fontsize=9)
     side.add_patch(plt.Rectangle((-robot_radius, h - 0.11), 2 * robot_radius, 0.1,
                                  fc="0.9", ec="0.4"))
     _axis_arrow(side, (0, 0), (1, 0), "$x_B$", "tab:red")
@@ -65,7 +67,7 @@ def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height
     side.plot(t[0], t[2], "o", color="tab:blue", ms=5)
     side.axhline(h - marker_height, color="tab:gray", ls=":", lw=1)
     side.annotate(f"marker centres\n({marker_height:.2f} m up)", (-0.21, h - marker_height),
-                  textcoords="offset points", xytext=(0, 3), fontsize=7, color="tab:gray")
+                  textcoords="offset points", xytext=(0, 3), fontsize=9, color="tab:gray")
     side.set_title(f"side view: camera {cam.camera_height:.3f} m above the floor")
     side.set_xlim(-0.22, 0.42)
     side.set_ylim(-0.06, h + 0.03)
@@ -89,6 +91,28 @@ def plot_camera_view(ax, image, *, title: str | None = None):
     if title:
         ax.set_title(title)
     return ax
+
+def plot_detections(ax, gray, det, camera, marker_length: float, *, title: str | None = None,
+                    fontsize: float = 10):
+    """A camera frame with the detected outlines and pose axes (drawn by OpenCV) and each
+    marker's id written above it in the figure's font, so that it stays readable when the
+    picture is shown small."""
+    from ..vision import draw_detections
+
+    plot_camera_view(ax, draw_detections(gray, det, camera, marker_length, ids=False),
+                     title=title)
+    _label_ids(ax, det, fontsize)
+    return ax
+
+
+def _label_ids(ax, det, fontsize: float):
+    for i, c in zip(det.ids, det.corners):
+        c = np.asarray(c, dtype=float)
+        ax.annotate(f"{int(i)}", (c[:, 0].mean(), c[:, 1].min()), textcoords="offset points",
+                    xytext=(0, 3), ha="center", va="bottom", fontsize=fontsize, color="tab:blue",
+                    bbox={"boxstyle": "round,pad=0.15", "fc": "white", "ec": "none",
+                          "alpha": 0.85})
+
 
 def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
     """Four panels of an :class:`slamlib.vision.ErrorStudy`: detection rate, range bias,
@@ -137,8 +161,8 @@ def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
                     label="fitted $\\sigma_\\rho$ (after the bias correction)")
         ax_b.axhline(np.degrees(model.sigma_bearing), color="k", ls="--", lw=1.2,
                      label="fitted $\\sigma_\\beta$")
-        ax_std.legend(handles=ax_std.get_lines()[-1:], fontsize=7, loc="upper left")
-        ax_b.legend(handles=ax_b.get_lines()[-1:], fontsize=7, loc="upper left")
+        ax_std.legend(handles=ax_std.get_lines()[-1:], fontsize=9, loc="upper left")
+        ax_b.legend(handles=ax_b.get_lines()[-1:], fontsize=9, loc="upper left")
     ax_det.set_ylabel("detection rate")
     ax_det.set_ylim(-0.05, 1.05)
     ax_bias.set_ylabel("range bias (cm)")
@@ -148,9 +172,9 @@ def plot_error_study(study, model=None, *, axes=None, error_bars: bool = True):
         ax.set_xlabel("true range (m)")
     for ax in (ax_det, ax_bias, ax_std, ax_b):
         ax.grid(True, lw=0.4, alpha=0.5)
-    ax_det.legend(fontsize=7, title="viewing angle", title_fontsize=7)
+    ax_det.legend(fontsize=9, title="viewing angle", title_fontsize=9)
     if model is not None:
-        ax_bias.legend(handles=ax_bias.get_lines()[-1:], fontsize=7, loc="upper left")
+        ax_bias.legend(handles=ax_bias.get_lines()[-1:], fontsize=9, loc="upper left")
     return axes
 
 def plot_detection_scene(world, pose, camera, *, rng=None, zoom=None, title=None):
@@ -174,15 +198,20 @@ def plot_detection_scene(world, pose, camera, *, rng=None, zoom=None, title=None
     fig = plt.figure(figsize=(11, 4.4), dpi=DPI)
     top = 0.85 if title else 0.92          # room for the figure's title
     ax_img = fig.add_axes([0.02, 0.1, 0.58, top - 0.1])
-    drawn = draw_detections(gray, det, camera, world.marker_length)
+    drawn = draw_detections(gray, det, camera, world.marker_length, ids=False)
     plot_camera_view(ax_img, drawn, title="camera view, detections and marker axes")
     if zoom is not None:
         u0, u1, v0, v1 = (int(round(v)) for v in zoom)
         inset = ax_img.inset_axes([0.02, 0.5, 0.96, 0.47])
         inset.imshow(drawn[v0:v1, u0:u1, ::-1], extent=(u0 - 0.5, u1 - 0.5, v1 - 0.5, v0 - 0.5))
+        inset.set_xlim(u0 - 0.5, u1 - 0.5)
+        inset.set_ylim(v1 - 0.5, v0 - 0.5)
         inset.set_xticks([])
         inset.set_yticks([])
+        _label_ids(inset, det, 10)
         ax_img.indicate_inset_zoom(inset, edgecolor="tab:orange")
+    else:
+        _label_ids(ax_img, det, 10)
     ax_top = fig.add_axes([0.64, 0.1, 0.34, top - 0.1])
     world_axes(ax_top, world)
     plot_world(ax_top, world, facing=True)
@@ -210,7 +239,7 @@ def plot_error_autocorrelation(lags_s, corr, *, labels=("range", "bearing"), ax=
     ax.set_ylabel("correlation of the errors")
     ax.set_ylim(-0.1, 1.0)
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     if title:
-        ax.set_title(title, fontsize=9)
+        ax.set_title(title, fontsize=10)
     return ax

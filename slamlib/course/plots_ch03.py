@@ -97,7 +97,7 @@ def plot_d2_histogram(ax, d2, *, dof: int = 2, threshold: float | None = None,
         ax.axvline(threshold, color="k", ls="--", lw=0.8, label=f"gate {threshold:.2f}")
     ax.set_xlabel(f"d² (last bin: {clip:g} and above)")
     ax.set_ylabel("density")
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=9)
     return float(np.mean(d2 >= clip)) if d2.size else float("nan")
 
 def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | None = None,
@@ -111,7 +111,8 @@ def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | 
     v = np.asarray(values, dtype=float)
     edges = (np.geomspace(v.min(), v.max(), bins + 1) if log
              else np.linspace(v.min(), v.max(), bins + 1))
-    ax.hist(v, bins=edges, color=color, alpha=0.6, label=f"{v.size} seeded runs")
+    counts, _, _ = ax.hist(v, bins=edges, color=color, alpha=0.6, label=f"{v.size} seeded runs")
+    ax.set_ylim(0, 1.7 * counts.max())                  # room for the legend above the bars
     if log:
         ax.set_xscale("log")
     if expected is not None:
@@ -123,7 +124,7 @@ def plot_run_values(ax, values, *, expected: float | None = None, marks: dict | 
     ax.set_xlabel(xlabel)
     ax.set_ylabel("runs")
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(fontsize=7)
+    ax.legend(fontsize=9)
     return ax
 
 def plot_interval_rows(ax, names, means, halfwidths, *, expected: float | None = None,
@@ -140,7 +141,8 @@ def plot_interval_rows(ax, names, means, halfwidths, *, expected: float | None =
     ax.errorbar(means, y, xerr=halfwidths, fmt="o", color=color, capsize=3,
                 label="mean over the runs, 95 % interval")
     ax.set_yticks(y, names)
+    ax.set_ylim(-1.3, len(names) - 0.5)                 # room for the legend below the rows
     ax.set_xlabel(xlabel)
     ax.grid(True, axis="x", lw=0.4, alpha=0.5)
-    ax.legend(fontsize=7, loc="lower right")
+    ax.legend(fontsize=9, loc="lower right")
     return ax

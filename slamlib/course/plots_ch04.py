@@ -42,5 +42,5 @@ def plot_inverse_cloud(ax, cloud, mean, cov, *, pose=None, nsigma: float = 2.0,
     ax.plot(*cloud.mean(axis=0), "x", color="k", ms=8, mew=2, label="sample mean")
     if pose is not None:
         plot_robot(ax, pose, size=0.2, label="robot (mean pose)")
-    ax.legend(fontsize=7, loc=legend_loc)
+    ax.legend(fontsize=9, loc=legend_loc)
     return ax

@@ -48,7 +48,7 @@ def plot_map_errors(ax, filt, world, *, threshold: float = 0.3, color: str = "ta
                     label=None if spurious else "id not in the world")
             spurious.append(int(mid))
     if legend:
-        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=7)
+        ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     return misplaced, spurious
 
 def plot_nees_per_run(study, single=None, *, axes=None, single_label: str = "the recorded run"):
@@ -83,7 +83,7 @@ def plot_nees_per_run(study, single=None, *, axes=None, single_label: str = "the
         top = max(means.max(), 0.0 if single is None else float(single[int(heading)]))
         ax.set_ylim(0, 1.7 * top)                       # room for the legend above the dots
         ax.grid(True, lw=0.4, alpha=0.5)
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=8, loc="upper left")
     fig.tight_layout()
     return fig, axes
 
@@ -140,7 +140,7 @@ def plot_nees_monte_carlo(studies, *, axes=None, prob: float = 0.95, title: str 
         ax.set_ylim(0, max(2.2 * hi, 1.1 * max(float(np.max(s.average(heading)))
                                                for s in studies)))
         ax.grid(True, lw=0.4, alpha=0.5)
-        ax.legend(fontsize=7, loc="upper left")
+        ax.legend(fontsize=8, loc="upper left")
     if title:
         fig.suptitle(title)
     fig.tight_layout()

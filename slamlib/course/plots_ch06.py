@@ -48,7 +48,7 @@ def plot_nees_averages(curves, n_runs: int, *, axes=None, prob: float = 0.95,
         ax.set_xlabel("t (s)")
         ax.set_ylabel(f"average {name}")
         ax.grid(True, lw=0.4, alpha=0.5, which="both")
-    axes[0].legend(fontsize=7, loc="upper left")
+    axes[0].legend(fontsize=8, loc="upper left")
     if title:
         fig.suptitle(title, fontsize=10)
     fig.tight_layout()
@@ -107,6 +107,6 @@ def plot_closure_against_nees(stored: dict, settings):
     ax.set_title("EKF SLAM, 100 seeds per setting: a rejection comes with an overconfident "
                  "filter", fontsize=9)
     ax.grid(True, lw=0.4, alpha=0.5, which="both")
-    ax.legend(fontsize=7, loc="upper left")
+    ax.legend(fontsize=8, loc="upper left")
     plt.tight_layout()
     return fig

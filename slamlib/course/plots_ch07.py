@@ -98,7 +98,9 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
                  label=f"{nsigma:g} sigma_xy (filter)")
     axes[2].set_ylabel("position (m)")
     axes[2].set_xlabel("t (s)")
-    axes[2].set_ylim(bottom=0)
+    # head room above the curves for a two-column legend that hides none of them
+    top = float(np.nanmax(np.concatenate([h["error_xy"], nsigma * h["sigma_xy"]])))
+    axes[2].set_ylim(0, 1.6 * top if top > 0 else 1.0)
     first = True
     for t0, t1, *_ in getattr(exploration.policy, "returns", []):
         for ax in axes:
@@ -111,7 +113,7 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
                         label=f"{nsigma:g} x return threshold")
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
-    axes[2].legend(fontsize=7, loc="upper left")
+    axes[2].legend(fontsize=8, loc="upper left", ncol=2)
     if title:
         axes[0].set_title(title)
     if own:

@@ -62,7 +62,7 @@ def plot_latency_study(rows, metrics=("ate_xy", "map_rmse"), *, axes=None,
         ax.set_ylim(bottom=0)
         ax.grid(True, lw=0.4, alpha=0.5)
     if legend_panel is not None:
-        axes[legend_panel].legend(fontsize=7, loc=legend_loc)
+        axes[legend_panel].legend(fontsize=9, loc=legend_loc)
     if title:
         fig.suptitle(title)
     fig.tight_layout()

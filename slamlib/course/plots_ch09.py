@@ -52,7 +52,7 @@ def plot_reading_gates(ax, report_nn, report_jcbb, labels, *, nsigma: float = 2.
     ax.set_xlabel("bearing (deg)")
     ax.set_ylabel("range (m)")
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8, loc="best")
+    ax.legend(fontsize=9, loc="best")
     if title:
         ax.set_title(title, fontsize=10)
 
@@ -75,7 +75,7 @@ def plot_wrong_associations(ax, scores, traces, *, title: str | None = None):
     ax.set_xlabel("t (s)")
     ax.set_ylabel("wrong associations so far")
     ax.grid(True, lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
     if title:
         ax.set_title(title, fontsize=10)
 
@@ -118,8 +118,8 @@ def plot_study(rows: list[dict], *, axes=None):
         ax.set_ylabel(label)
         ax.grid(True, axis="y", lw=0.4, alpha=0.5)
         if key == "nees":
-            ax.axhline(3.0, color="tab:green", lw=1, ls="--", label="3 (consistent)")
-            ax.legend(fontsize=8)
+            ax.axhline(3.0, color="tab:green", lw=1, ls="--", label="3: a consistent filter's mean")
+            ax.legend(fontsize=9)
     plt.tight_layout()
     return axes
 
@@ -135,7 +135,7 @@ def plot_jcbb_cost(ax, ks, nodes_by_case: dict[str, list[int]],
     ax.set_xlabel("readings in the frame")
     ax.set_ylabel("nodes JCBB visits")
     ax.grid(True, which="both", lw=0.4, alpha=0.5)
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9)
 
 
 def drift_columns(rows: list[dict]) -> dict[tuple[str, float], dict[str, np.ndarray]]:
@@ -150,9 +150,9 @@ def drift_columns(rows: list[dict]) -> dict[tuple[str, float], dict[str, np.ndar
     return {k: {key: np.asarray(v) for key, v in d.items()} for k, d in out.items()}
 
 
-def plot_drift_study(cols: dict, *, seed: int = 1, axes=None):
+def plot_drift_study(cols: dict, *, seed: int = 1, seed_label: str | None = None, axes=None):
     """Wrong associations per drifted run, JCBB against NN, at gates 0.95 and 0.99 (symlog);
-    ``seed`` (the chapter's run) ringed."""
+    ``seed`` (the chapter's run) ringed, labelled ``seed_label`` (default ``"seed <seed>"``)."""
     import matplotlib.pyplot as plt
 
     if axes is None:
@@ -163,7 +163,7 @@ def plot_drift_study(cols: dict, *, seed: int = 1, axes=None):
                 label=f"{nn['wrong'].size} seeds")
         k = int(np.flatnonzero(nn["seed"] == seed)[0])
         ax.plot(nn["wrong"][k], jc["wrong"][k], "o", ms=11, mfc="none", mec="k", mew=1.5,
-                label=f"seed {seed} (the run above)")
+                label=seed_label or f"seed {seed}")
         top = max(nn["wrong"].max(), jc["wrong"].max()) * 1.3 + 1
         ax.plot([0, top], [0, top], "k--", lw=0.8, label="equal")
         ax.set_xscale("symlog", linthresh=1)
@@ -174,6 +174,6 @@ def plot_drift_study(cols: dict, *, seed: int = 1, axes=None):
         ax.set_ylabel("JCBB: wrong associations in the run")
         ax.set_title(f"gate {gate:g}", fontsize=10)
         ax.grid(True, which="both", lw=0.4, alpha=0.5)
-        ax.legend(fontsize=8, loc="upper left")
+        ax.legend(fontsize=9, loc="upper left")
     plt.tight_layout()
     return axes

@@ -7,7 +7,8 @@ import numpy as np
 
 from . import plots
 
-__all__ = ["plot_paths", "plot_yaw_rates", "plot_reading_residuals", "plot_slam_comparison"]
+__all__ = ["plot_paths", "plot_yaw_rates", "plot_whiteness", "plot_reading_residuals",
+           "plot_slam_comparison", "plot_heldout"]
 
 
 def plot_paths(ax, logs, world):
@@ -26,11 +27,12 @@ def plot_paths(ax, logs, world):
     ax.plot(pos[:, 0], pos[:, 1], "ks", ms=5, label="landmarks")
     for i, p in world.landmarks().items():
         ax.annotate(str(i), p, xytext=(3, 3), textcoords="offset points", fontsize=7)
-    ax.legend(fontsize=7, loc="upper left", bbox_to_anchor=(1.02, 1.0))
+    ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return ax
 
 def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
-    """Vicon's yaw rate against the logged command and the calibrated one (z-down)."""
+    """Vicon's yaw rate against the logged command and the corrected one (z-down);
+    ``cal`` an :class:`~slamlib.datasets.identify.CommandFit`."""
     from ..datasets import identify
 
     raw = identify.odometry_windows(log, window=0.25)
@@ -47,6 +49,48 @@ def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
     ax.set_ylabel("yaw rate, z-down (rad/s)")
     ax.legend(fontsize=8)
     ax.grid(True, lw=0.4, alpha=0.5)
+    return ax
+
+def plot_whiteness(ax, white, q_textbook=None):
+    """The density ``q(T) = T mean(r^2)`` of the window residuals against the window ``T``,
+    each relative to its value at 1 s: flat for white noise (log-log axes)."""
+    T = white.windows
+    k = int(np.argmin(np.abs(T - 1.0)))
+    for q, c, name in ((white.q_w, "tab:blue", "yaw rate"), (white.q_v, "tab:red",
+                                                             "forward speed")):
+        ax.plot(T, q / q[k], "o-", color=c, lw=1.2, ms=4, label=name)
+    ax.axhline(1.0, color="k", lw=0.8, ls="--", label="white noise (flat)")
+    ax.set_xscale("log", base=2)
+    ax.set_yscale("log", base=2)
+    ax.set_xticks(T)
+    ax.set_xticklabels([f"{t:g}" for t in T])
+    ax.set_xlabel("window T (s)")
+    ax.set_ylabel("q(T) / q(1 s)")
+    ax.grid(True, which="both", lw=0.4, alpha=0.5)
+    ax.legend(fontsize=9)
+    return ax
+
+def plot_heldout(ax, study, variant, reference="textbook", splits=None,
+                 markers=("o", "s", "^", "D")):
+    """Each held-out run (robot and split) as a dot: ``reference``'s ATE across, ``variant``'s
+    up (log axes); below the diagonal ``variant`` did better."""
+    splits = splits or study.splits
+    lo, hi = np.inf, 0.0
+    for s, m in zip(splits, markers):
+        a, b = study.ate(s, reference), study.ate(s, variant)
+        ax.plot(a, b, m, ms=6, mfc="none", mew=1.3, label=s.replace("_", " "))
+        lo, hi = min(lo, a.min(), b.min()), max(hi, a.max(), b.max())
+    lim = (0.8 * lo, 1.25 * hi)
+    ax.plot(lim, lim, "k", lw=0.8)
+    ax.set_xscale("log")
+    ax.set_yscale("log")
+    ax.set_xlim(lim)
+    ax.set_ylim(lim)
+    ax.set_aspect("equal")
+    ax.set_xlabel(f"ATE with {reference} (m)")
+    ax.set_ylabel(f"ATE with {variant} (m)")
+    ax.grid(True, which="both", lw=0.4, alpha=0.5)
+    ax.legend(fontsize=9, title="held-out split", title_fontsize=9)
     return ax
 
 def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
@@ -68,7 +112,7 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     a0.set_ylim(-1.2, 1.2)
     a0.set_xlabel("true range (m)")
     a0.set_ylabel("range residual (m)")
-    a0.legend(fontsize=7, loc="lower left")
+    a0.legend(fontsize=8, loc="lower left")
     a0.grid(True, lw=0.4, alpha=0.5)
     lim = max(0.15, float(np.max(np.abs(res.e_bearing))) * 1.05)
     edges = np.linspace(-lim, lim, 121)
@@ -87,7 +131,7 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     a1.set_ylim(0.5, 3.0 * float(np.max(counts)))
     a1.set_xlabel("bearing residual (rad)")
     a1.set_ylabel("readings per bin")
-    a1.legend(fontsize=7)
+    a1.legend(fontsize=8)
     return axes
 
 def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
@@ -108,7 +152,7 @@ def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
         a1.plot(tr.t - tr.t[0], e, color=c, lw=1, label=name)
         a1.plot(tr.t - tr.t[0], 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), color=c, lw=0.8,
                 ls=":")
-    a0.legend(fontsize=7, loc="upper right")
+    a0.legend(fontsize=8, loc="upper right")
     a1.set_xlabel("time (s)")
     a1.set_ylabel("position error (m); dotted: 2 sigma")
     a1.legend(fontsize=8)

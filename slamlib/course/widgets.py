@@ -27,23 +27,36 @@ def render_outputs(plot: Callable[..., object], kwargs: dict) -> tuple[str, list
     taken from the captured display messages; figures still open afterwards
     (any other backend) are saved as PNG and closed.
     """
+    text, figures = _render(plot, kwargs)
+    return text, [png for png, _ in figures]
+
+
+def _render(plot: Callable[..., object], kwargs: dict) -> tuple[str, list[tuple[bytes, dict]]]:
+    """:func:`render_outputs` with each PNG's display metadata (its displayed width and height
+    when the PNG holds more pixels than it shows: the course's pixel-doubled figures)."""
     import matplotlib.pyplot as plt
     from IPython.utils.capture import capture_output
 
     before = set(plt.get_fignums())
     with capture_output(display=True) as cap:
         plot(**kwargs)
-    pngs = [out.data["image/png"] for out in cap.outputs if "image/png" in out.data]
-    pngs = [p if isinstance(p, bytes) else _b64decode(p) for p in pngs]
+    figures = []
+    for out in cap.outputs:
+        if "image/png" in out.data:
+            png = out.data["image/png"]
+            png = png if isinstance(png, bytes) else _b64decode(png)
+            figures.append((png, dict((out.metadata or {}).get("image/png", {}))))
     for num in plt.get_fignums():
         if num in before:
             continue
         fig = plt.figure(num)
         buf = io.BytesIO()
-        fig.savefig(buf, format="png", bbox_inches="tight")
-        pngs.append(buf.getvalue())
+        fig.savefig(buf, format="png", bbox_inches="tight", dpi=2 * fig.dpi)
+        png = buf.getvalue()
+        width, height = int.from_bytes(png[16:20], "big"), int.from_bytes(png[20:24], "big")
+        figures.append((png, {"width": width // 2, "height": height // 2}))
         plt.close(fig)
-    return cap.stdout, pngs
+    return cap.stdout, figures
 
 
 def _b64decode(s: str) -> bytes:
@@ -85,22 +98,23 @@ def interact_figure(plot: Callable[..., object], **controls):
     def values() -> dict:
         return {name: c.value for name, c in controls.items()}
 
-    def bundles() -> tuple[dict | None, dict]:
-        text, pngs = render_outputs(plot, values())
+    def bundles() -> tuple[dict | None, dict, dict]:
+        text, figures = _render(plot, values())
         text = text.rstrip("\n")
-        image = ({"image/png": pngs[-1], "text/plain": "<Figure>"} if pngs
+        image = ({"image/png": figures[-1][0], "text/plain": "<Figure>"} if figures
                  else {"text/plain": "(no figure)"})
-        return ({"text/plain": text} if text else None), image
+        shown = {"image/png": figures[-1][1]} if figures and figures[-1][1] else {}
+        return ({"text/plain": text} if text else None), image, shown
 
-    text, image = bundles()
+    text, image, shown = bundles()
     text_handle = display(text, raw=True, display_id=True) if text else None
-    image_handle = display(image, raw=True, display_id=True)
+    image_handle = display(image, raw=True, display_id=True, metadata=shown)
 
     def redraw(_change=None) -> None:
-        t, i = bundles()
+        t, i, m = bundles()
         if text_handle is not None:
             text_handle.update(t or {"text/plain": ""}, raw=True)
-        image_handle.update(i, raw=True)
+        image_handle.update(i, raw=True, metadata=m)
 
     for c in controls.values():
         c.observe(redraw, names="value")

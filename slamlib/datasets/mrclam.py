@@ -45,18 +45,23 @@ from the commands: the course's runners (:mod:`slamlib.runner`) take it
 as they take a simulated run, and :func:`dead_reckoning`,
 :func:`localization` and :func:`slam` call them with the log's noise.
 
-A malformed file (a missing column, text where a number belongs, a time that
-goes backwards, a barcode that no subject carries) raises
+Official data sets are read as they are: Dataset 6 holds six readings of
+barcodes that no subject carries (43 for robot 1, 34 for robot 3, 50 for
+robot 4: misread codes). By default they are dropped, counted
+(``log.dropped``) and warned about once per load with the count
+(:class:`MRCLAMWarning`); ``unknown_barcodes="error"`` raises instead. A
+malformed file (a byte-order mark, a missing column, text where a number
+belongs, a value outside its column's limits such as a negative range or
+std-dev or a speed of 1e300, a time that goes backwards) raises
 :class:`MRCLAMFormatError` (a ValueError) naming the file, the line and the
-reason. Dataset 6 itself holds six readings of barcodes that no subject
-carries (43 for robot 1, 34 for robot 3, 50 for robot 4: misread codes); pass
-``unknown_barcodes="drop"`` to drop them (they are counted in ``log.meta``).
+reason.
 """
 
 from __future__ import annotations
 
 import dataclasses
 import math
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,9 +77,9 @@ from ..sensors import AnalyticMarkerSensor
 from ..validate import as_covariance
 from ..worlds import DATA_DIR, Marker, World
 
-__all__ = ["Log", "MRCLAMFormatError", "load", "read_table", "dead_reckoning", "localization",
-           "slam", "commands_to_wheel_speeds", "write_excerpt", "EXCERPT_DIR", "ROBOTS",
-           "TEXTBOOK_NOISE"]
+__all__ = ["Log", "MRCLAMFormatError", "MRCLAMWarning", "load", "read_table", "dead_reckoning",
+           "localization", "slam", "commands_to_wheel_speeds", "write_excerpt", "EXCERPT_DIR",
+           "ROBOTS", "TEXTBOOK_NOISE"]
 
 #: The excerpt of Dataset 6 shipped with the course.
 EXCERPT_DIR = DATA_DIR / "mrclam" / "MRCLAM_Dataset6"
@@ -85,6 +90,17 @@ TEXTBOOK_NOISE = {"sigma_wheel": 0.05, "sigma_range0": 0.15, "sigma_range_per_m"
                   "sigma_bearing": 0.03}
 #: The course's wheel base (m) used to express the commands as wheel speeds.
 DEFAULT_WHEEL_BASE = 0.23
+
+#: What each column may hold: (low, high, unit). Generous beyond any real log (a room of
+#: 15 m, speeds below 1 m/s; angles are wrapped, so any size a wrap takes exactly), tight
+#: enough that nothing overflows downstream (a range of 1e300 squared is inf).
+_LIMITS = {
+    "time": (-1e12, 1e12, "s"), "x": (-1e4, 1e4, "m"), "y": (-1e4, 1e4, "m"),
+    "forward velocity": (-100.0, 100.0, "m/s"), "angular velocity": (-100.0, 100.0, "rad/s"),
+    "range": (0.0, 1e3, "m"), "bearing": (-1e3, 1e3, "rad"), "orientation": (-1e3, 1e3, "rad"),
+    "x std-dev": (0.0, 1e3, "m"), "y std-dev": (0.0, 1e3, "m"),
+    "subject": (0, 2 ** 31 - 1, ""), "barcode": (0, 2 ** 31 - 1, ""),
+}
 
 _COLUMNS = {
     "Odometry": (("time", "f"), ("forward velocity", "f"), ("angular velocity", "f")),
@@ -98,6 +114,10 @@ _COLUMNS = {
 
 class MRCLAMFormatError(ValueError):
     """A data set's file is malformed; the message names the file, the line and the reason."""
+
+
+class MRCLAMWarning(UserWarning):
+    """Something in a data set was left out on reading (e.g. misread barcodes); once per load."""
 
 
 def commands_to_wheel_speeds(v, w_up, wheel_base: float = DEFAULT_WHEEL_BASE) -> np.ndarray:
@@ -128,6 +148,7 @@ def read_table(path, columns: tuple[tuple[str, str], ...]) -> tuple[dict[str, np
         The file.
     columns : tuple of (name, kind)
         The expected columns; kind ``"f"`` (a finite number) or ``"i"`` (an integer).
+        A column named in :data:`_LIMITS` must lie within its limits.
 
     Returns
     -------
@@ -137,8 +158,9 @@ def read_table(path, columns: tuple[tuple[str, str], ...]) -> tuple[dict[str, np
     Raises
     ------
     MRCLAMFormatError
-        Missing file, wrong number of columns, a field that is not a (finite)
-        number or an integer; the message names the file and the line.
+        Missing file, a byte-order mark, wrong number of columns, a field that
+        is not a (finite) number or an integer, or one outside its column's
+        limits; the message names the file and the line.
     """
     path = Path(path)
     if not path.is_file():
@@ -148,6 +170,10 @@ def read_table(path, columns: tuple[tuple[str, str], ...]) -> tuple[dict[str, np
     lines: list[int] = []
     with path.open(encoding="utf-8", errors="replace") as fh:
         for ln, line in enumerate(fh, start=1):
+            if ln == 1 and line.startswith("\ufeff"):
+                raise MRCLAMFormatError(f"{path}: line 1: starts with a byte-order mark "
+                                        f"(U+FEFF, an editor's UTF-8 signature); the data "
+                                        f"set's files are plain text: save it without one")
             s = line.strip()
             if not s or s.startswith("#"):
                 continue
@@ -172,6 +198,12 @@ def read_table(path, columns: tuple[tuple[str, str], ...]) -> tuple[dict[str, np
                     if not math.isfinite(v):
                         raise MRCLAMFormatError(f"{path}: line {ln}: column {name}: expected "
                                                 f"a finite number, got {f!r}")
+                lim = _LIMITS.get(name)
+                if lim is not None and not lim[0] <= v <= lim[1]:
+                    unit = f" {lim[2]}" if lim[2] else ""
+                    raise MRCLAMFormatError(f"{path}: line {ln}: column {name}: expected a "
+                                            f"value from {lim[0]:g} to {lim[1]:g}{unit}, "
+                                            f"got {f!r}")
                 cols[j].append(v)
             lines.append(ln)
     out = {name: np.array(c, dtype=np.int64 if kind == "i" else float)
@@ -278,6 +310,13 @@ class Log(Run):
         return int(self.meta["robot"])
 
     @property
+    def dropped(self) -> dict[str, int]:
+        """How many readings the loader left out, by reason: of other robots
+        (``robot_readings``), of barcodes no subject carries (``unknown_barcode_readings``,
+        misreads) and of landmarks outside the log's time span (``readings_outside_span``)."""
+        return dict(self.meta["dropped"])
+
+    @property
     def start_pose(self) -> np.ndarray:
         """Vicon's pose at the first time of the timeline (where the filters start)."""
         return self.truth_at(self.enc_t[0])
@@ -289,34 +328,63 @@ class Log(Run):
     def Q(self, dt: float | None = None, quantisation: bool = False) -> np.ndarray:
         """The 2x2 covariance of ``u = [V_R, V_L]`` per prediction step.
 
-        ``meta["motion"]["Q"]`` if given (e.g. identified from data, chapter 10),
-        else ``sigma_wheel^2 I``: commanded speeds are not counted ticks, so
-        nothing is quantised.
+        With a noise density ``Q_c`` (``meta["motion"]["Q_density"]``, identified
+        from data, chapter 10): ``Q_c / dt`` for a step of ``dt`` (the median step
+        by default; the runners take every step's own, :meth:`Q_steps`). Else
+        ``meta["motion"]["Q"]`` if given, else ``sigma_wheel^2 I``: commanded
+        speeds are not counted ticks, so nothing is quantised.
         """
-        q = self.meta.get("motion", {}).get("Q")
+        motion = self.meta.get("motion", {})
+        if motion.get("Q_density") is not None:
+            if dt is None:
+                dt = float(np.median(np.diff(self.enc_t)))
+            return np.array(motion["Q_density"], dtype=float) / float(dt)
+        q = motion.get("Q")
         if q is not None:
             return np.array(q, dtype=float)
         return self.sigma_wheel ** 2 * np.eye(2)
+
+    def Q_steps(self, dt: np.ndarray) -> np.ndarray | None:
+        """``Q_c / dt_k`` (k, 2, 2) for the steps ``dt`` when the noise is a density, else None.
+
+        A white speed error of density ``Q_c`` ((m/s)^2 s) averaged over a step
+        of ``dt`` has covariance ``Q_c / dt``; the step's pose covariance
+        ``W Q W^T`` (``W`` grows with ``dt``) then grows in proportion to ``dt``,
+        so splitting a step in two changes nothing (chapter 10).
+        """
+        qc = self.meta.get("motion", {}).get("Q_density")
+        if qc is None:
+            return None
+        dt = np.asarray(dt, dtype=float)
+        return np.array(qc, dtype=float)[None, :, :] / dt[:, None, None]
 
     def world(self) -> World:
         """The landmark map (ids are barcodes), frame N."""
         return self.landmark_world
 
-    def with_noise(self, *, sigma_wheel: float | None = None, Q=None, **sensor) -> Log:
+    def with_noise(self, *, sigma_wheel: float | None = None, Q=None, Q_density=None,
+                   **sensor) -> Log:
         """The same log with other noise for the runners.
 
-        ``sigma_wheel`` (m/s per wheel and prediction step, ``Q = sigma^2 I``),
-        or a full 2x2 ``Q`` of ``[V_R, V_L]``, and any
-        :class:`~slamlib.sensors.AnalyticMarkerSensor` parameter
+        One of: ``sigma_wheel`` (m/s per wheel and prediction step, ``Q = sigma^2
+        I``), a full 2x2 ``Q`` of ``[V_R, V_L]`` per step, or a 2x2 noise density
+        ``Q_density`` ((m/s)^2 s; each step gets ``Q_density / dt``, :meth:`Q_steps`);
+        and any :class:`~slamlib.sensors.AnalyticMarkerSensor` parameter
         (``sigma_range0``, ``sigma_range_per_m``, ``sigma_bearing``).
         """
+        if sum(a is not None for a in (sigma_wheel, Q, Q_density)) > 1:
+            raise ValueError("sigma_wheel, Q, Q_density: expected at most one of them")
         meta = {**self.meta}
         meta["motion"] = {**meta.get("motion", {})}
+        if sigma_wheel is not None or Q is not None or Q_density is not None:
+            meta["motion"].pop("Q", None)
+            meta["motion"].pop("Q_density", None)
         if sigma_wheel is not None:
             meta["motion"]["sigma_wheel"] = float(sigma_wheel)
-            meta["motion"].pop("Q", None)
         if Q is not None:
             meta["motion"]["Q"] = as_covariance("Q", Q, 2).tolist()
+        if Q_density is not None:
+            meta["motion"]["Q_density"] = as_covariance("Q_density", Q_density, 2).tolist()
         if sensor:
             params = {**meta["sensor"], **{k: float(v) for k, v in sensor.items()}}
             AnalyticMarkerSensor.from_params(params)   # checks the names and values
@@ -329,6 +397,40 @@ class Log(Run):
         cam = CameraRows(c.t_capture, c.t_arrival, c.id, rho, bearing, c.true_id, c.true_rho,
                          c.true_bearing)
         return dataclasses.replace(self, camera=cam)
+
+    def between(self, t_from: float, t_to: float | None = None) -> Log:
+        """The same log over the absolute times ``[t_from, t_to]`` (to its end without ``t_to``).
+
+        The timeline begins at its first time at or after ``t_from`` (the filters
+        start there, at Vicon's pose) and ends at its last at or before ``t_to``;
+        the readings after the first time and up to the last are kept. Every
+        step keeps its command, so a log cut in two runs as its halves would.
+        ``meta["dropped"]`` keeps the counts of the whole record.
+        """
+        T = self.enc_t
+        if not (isinstance(t_from, (int, float, np.floating)) and math.isfinite(t_from)):
+            raise ValueError(f"t_from: expected a time in s, got {t_from!r}")
+        k0 = int(np.searchsorted(T, t_from, side="left"))
+        k1 = T.size if t_to is None else int(np.searchsorted(T, t_to, side="right"))
+        if k1 - k0 < 2:
+            raise ValueError(f"t_from, t_to: expected at least two times of the timeline "
+                             f"({T[0]:.3f} to {T[-1]:.3f} s) between them, got {t_from!r} and "
+                             f"{t_to!r}")
+        enc = T[k0:k1]
+        c = self.camera
+        m = (c.t_capture > enc[0]) & (c.t_capture <= enc[-1])
+        cam = CameraRows(*(getattr(c, n)[m] for n in ("t_capture", "t_arrival", "id", "rho",
+                                                      "bearing", "true_id", "true_rho",
+                                                      "true_bearing")))
+        # Vicon samples covering the timeline (one before its start, one after its end)
+        a = max(int(np.searchsorted(self.truth_t, enc[0], side="right")) - 1, 0)
+        b = min(int(np.searchsorted(self.truth_t, enc[-1], side="left")) + 1,
+                self.truth_t.size)
+        zeros = np.zeros(enc.size, dtype=np.int64)
+        meta = {**self.meta, "duration": float(enc[-1] - enc[0])}
+        return dataclasses.replace(self, enc_t=enc, ticks_R=zeros, ticks_L=zeros,
+                                   u=self.u[k0:k1 - 1], camera=cam, truth_t=self.truth_t[a:b],
+                                   truth=self.truth[a:b], meta=meta)
 
     def select_readings(self, keep) -> Log:
         """The same log with only the readings where ``keep`` (bool, one per reading) is true.
@@ -350,10 +452,11 @@ class Log(Run):
                                   "ticks to save as a run")
 
 
-def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
-         wheel_base: float = DEFAULT_WHEEL_BASE, unknown_barcodes: str = "error",
+def load(folder=EXCERPT_DIR, robot: int = 1, *, start: float = 0.0,
+         duration: float | None = None,
+         wheel_base: float = DEFAULT_WHEEL_BASE, unknown_barcodes: str = "drop",
          noise: dict | None = None, command_scale: tuple[float, float] = (1.0, 1.0),
-         command_delay: float = 0.0) -> Log:
+         command_delay: float = 0.0, calibration=None) -> Log:
     """Read robot ``robot``'s log from an MRCLAM data set folder (the module doc says how).
 
     Parameters
@@ -364,14 +467,17 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
     robot : int
         Subject number 1-5.
     duration : float, optional
-        Keep only the first ``duration`` seconds of the timeline.
+        Keep only ``duration`` seconds of the timeline (from ``start``).
     wheel_base : float
         b (m) used to express the commands as wheel speeds.
-    unknown_barcodes : {"error", "drop"}
-        What a reading of a barcode no subject carries does: raise
-        :class:`MRCLAMFormatError`, or be dropped (and counted).
+    unknown_barcodes : {"drop", "error"}
+        What a reading of a barcode no subject carries (a misread) does: be
+        dropped, counted in ``log.dropped`` and warned about once per load
+        (:class:`MRCLAMWarning`, with the count), or raise
+        :class:`MRCLAMFormatError`.
     noise : dict, optional
-        ``sigma_wheel`` or a 2x2 ``Q``, and sensor parameters
+        ``sigma_wheel``, a 2x2 ``Q`` per step or a 2x2 ``Q_density`` ((m/s)^2 s,
+        :meth:`Log.Q_steps`), and sensor parameters
         (``sigma_range0``, ``sigma_range_per_m``, ``sigma_bearing``); what is not
         given comes from :data:`TEXTBOOK_NOISE`.
     command_scale : (float, float)
@@ -379,6 +485,13 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
     command_delay : float
         Seconds between a command's log time and the moment it takes effect
         (a calibration; 0 = as logged): command times are shifted by it.
+    calibration : identify.Calibration, optional
+        What :func:`slamlib.datasets.identify.identify` found: its command
+        scale and delay, noise density and R(rho), each where it has one (the
+        rest as logged / textbook). Not together with ``noise``,
+        ``command_scale`` or ``command_delay``.
+    start : float
+        Skip the first ``start`` seconds of the timeline (:meth:`Log.between`).
 
     Returns
     -------
@@ -396,8 +509,24 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
         raise ValueError(f"robot: expected a robot subject number in {ROBOTS}, got {robot!r}")
     if unknown_barcodes not in ("error", "drop"):
         raise ValueError(f"unknown_barcodes: expected 'error' or 'drop', got {unknown_barcodes!r}")
+    if not (isinstance(start, (int, float)) and math.isfinite(start) and start >= 0):
+        raise ValueError(f"start: expected a number of seconds >= 0, got {start!r}")
     if duration is not None and not (isinstance(duration, (int, float)) and duration > 0):
         raise ValueError(f"duration: expected a positive number of seconds, got {duration!r}")
+    if calibration is not None:
+        from .identify import Calibration
+
+        if not isinstance(calibration, Calibration):
+            raise ValueError(f"calibration: expected an identify.Calibration, got "
+                             f"{type(calibration).__name__}")
+        if noise is not None or tuple(command_scale) != (1.0, 1.0) or command_delay != 0.0:
+            raise ValueError("calibration: expected alone, not with noise, command_scale or "
+                             "command_delay (it sets them)")
+        noise = calibration.noise(wheel_base)
+        if calibration.command_scale is not None:
+            command_scale = calibration.command_scale
+        if calibration.command_delay is not None:
+            command_delay = calibration.command_delay
     if not folder.is_dir():
         raise MRCLAMFormatError(f"{folder}: not a folder")
     robot = int(robot)
@@ -413,16 +542,13 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
     p_me = folder / f"Robot{robot}_Measurement.dat"
     me, ml = read_table(p_me, _COLUMNS["Measurement"])
     _non_decreasing(p_me, me["time"], ml)
-    for k in np.flatnonzero(me["range"] < 0.0)[:1]:
-        raise MRCLAMFormatError(f"{p_me}: line {ml[k]}: column range: expected a range >= 0, "
-                                f"got {me['range'][k]!r}")
     known = np.array([b in subject_of for b in me["barcode"].tolist()], dtype=bool)
     if unknown_barcodes == "error" and not known.all():
         k = int(np.flatnonzero(~known)[0])
         raise MRCLAMFormatError(
             f"{p_me}: line {ml[k]}: unknown barcode {me['barcode'][k]} (no subject carries it "
             f"in {folder / 'Barcodes.dat'}; {int(np.sum(~known))} such reading(s) in this "
-            f"file: pass unknown_barcodes='drop' to drop them)")
+            f"file; the default, unknown_barcodes='drop', drops and counts them)")
     for path, table in ((p_odo, odo), (p_gt, gt)):
         if table["time"].size < 2:
             raise MRCLAMFormatError(f"{path}: line 1: expected at least two rows")
@@ -445,14 +571,23 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
         raise MRCLAMFormatError(f"{p_odo}: line {ol[0]}: the odometry does not overlap the "
                                 f"Vicon record of {p_gt} in time")
     t0 = float(t0)
-    if duration is not None:
-        t_end = min(t_end, t0 + float(duration))
+    if start >= t_end - t0:
+        raise ValueError(f"start: expected less than the log's {t_end - t0:.1f} s, got {start!r}")
     ro = (odo_t >= t0) & (odo_t <= t_end)
-    use = known & (me["time"] > t0) & (me["time"] <= t_end)
+    inside = (me["time"] > t0) & (me["time"] <= t_end)
+    use = known & inside
+    n_misread = int(np.sum(~known & inside))
+    if n_misread:
+        codes = sorted(set(me["barcode"][~known & inside].tolist()))
+        warnings.warn(f"{p_me}: {n_misread} reading(s) of barcode(s) {codes} that no subject "
+                      f"carries (misreads) dropped; counted in log.dropped; "
+                      f"unknown_barcodes='error' raises instead", MRCLAMWarning, stacklevel=2)
     is_robot = np.array([b in robot_barcodes for b in me["barcode"].tolist()], dtype=bool)
     n_robot = int(np.sum(use & is_robot))
     use &= ~is_robot
-    timeline = np.unique(np.concatenate([odo_t[ro], me["time"][use]]))
+    # on the Run's 1 us grid (DECIMALS["t"]): a shifted command time that rounds onto a reading's
+    # time is one time, not a step of length zero
+    timeline = np.unique(np.round(np.concatenate([odo_t[ro], me["time"][use]]), 6))
     # the command in force on [T_k, T_k+1): the last one logged at or before T_k
     idx = np.searchsorted(odo_t, timeline[:-1], side="right") - 1
     u = commands_to_wheel_speeds(float(command_scale[0]) * odo["forward velocity"][idx],
@@ -470,25 +605,36 @@ def load(folder=EXCERPT_DIR, robot: int = 1, *, duration: float | None = None,
                         true_bearing=np.full(t_me.size, np.nan))
     nz = {**TEXTBOOK_NOISE, **(noise or {})}
     sensor = AnalyticMarkerSensor(**{k: float(v) for k, v in nz.items()
-                                     if k not in ("sigma_wheel", "Q")})
+                                     if k not in ("sigma_wheel", "Q", "Q_density")})
     motion = {"sigma_wheel": float(nz["sigma_wheel"])}
+    if nz.get("Q") is not None and nz.get("Q_density") is not None:
+        raise ValueError("noise: expected 'Q' (per step) or 'Q_density', not both")
     if nz.get("Q") is not None:
         motion["Q"] = as_covariance("noise['Q']", nz["Q"], 2).tolist()
+    if nz.get("Q_density") is not None:
+        motion["Q_density"] = as_covariance("noise['Q_density']", nz["Q_density"], 2).tolist()
     meta = {
         "world": world.name, "robot": robot, "folder": str(folder), "source": "UTIAS MRCLAM",
         "duration": float(timeline[-1] - timeline[0]),
         "encoder": {"wheel_base": float(wheel_base)},
         "motion": motion,
         "sensor": sensor.params(),
-        "dropped": {"robot_readings": n_robot, "unknown_barcode_readings": int(np.sum(~known)),
-                    "readings_outside_vicon": int(np.sum(known & ~is_robot) - np.sum(use))},
+        "commands": {"scale": [float(command_scale[0]), float(command_scale[1])],
+                     "delay": float(command_delay)},
+        "calibration": None if calibration is None else calibration.to_dict(),
+        "dropped": {"robot_readings": n_robot, "unknown_barcode_readings": n_misread,
+                    "readings_outside_span": int(np.sum(known & ~is_robot & ~inside))},
         "description": f"MRCLAM {folder.name}, robot {robot}: commanded (v, w) as wheel speeds "
                        f"on b = {wheel_base} m, barcode readings, Vicon truth; frame N z-down",
     }
     zeros = np.zeros(timeline.size, dtype=np.int64)
-    return Log(name=f"{folder.name} robot {robot}", truth_t=gt_t[a:b], truth=truth[a:b],
-               enc_t=timeline, ticks_R=zeros, ticks_L=zeros, camera=camera, meta=meta, u=u,
-               landmark_world=world, landmark_std=std)
+    log = Log(name=f"{folder.name} robot {robot}", truth_t=gt_t[a:b], truth=truth[a:b],
+              enc_t=timeline, ticks_R=zeros, ticks_L=zeros, camera=camera, meta=meta, u=u,
+              landmark_world=world, landmark_std=std)
+    if start > 0 or duration is not None:
+        t_from = t0 + float(start)
+        log = log.between(t_from, None if duration is None else t_from + float(duration))
+    return log
 
 
 # --------------------------------------------------------------------------- the pipeline

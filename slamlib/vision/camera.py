@@ -21,6 +21,7 @@ import numpy as np
 from ..validate import as_matrix, as_positive, as_vector, read_json_file
 from ..worlds import DATA_DIR
 from .markers import get_dictionary
+from .opencv_files import open_storage
 
 __all__ = ["R_BASE_CAM", "DEFAULT_BASE_HEIGHT", "CALIBRATION_DIR", "CalibrationFormatError",
            "Camera", "base_pose_matrix", "camera_from_dict", "load_camera",
@@ -202,9 +203,7 @@ def read_opencv_calibration(path, width: int | None = None, height: int | None =
     ``width``/``height`` are needed when the file does not give them.
     """
     path = Path(path)
-    if not path.is_file():
-        raise CalibrationFormatError(f"{path}: missing file")
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    fs = open_storage(path, CalibrationFormatError)
     try:
         K = fs.getNode("camera_matrix").mat()
         dist = fs.getNode("distortion_coefficients").mat()

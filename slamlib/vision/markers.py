@@ -18,9 +18,15 @@ import numpy as np
 
 from ..validate import as_positive
 from ..worlds import Marker
+from .opencv_files import open_storage
 
 __all__ = ["read_dictionary", "get_dictionary", "marker_image", "marker_object_points",
            "marker_corners_world"]
+
+
+#: OpenCV's predefined dictionaries: name -> code (``cv2.aruco.DICT_*``).
+PREDEFINED = {name: code for name, code in vars(cv2.aruco).items()
+              if name.startswith("DICT_") and isinstance(code, int)}
 
 
 def _is_dictionary_file(dictionary) -> bool:
@@ -33,10 +39,12 @@ def read_dictionary(path) -> cv2.aruco.Dictionary:
     path = Path(path)
     if not path.is_file():
         raise ValueError(f"dictionary: no such dictionary file {str(path)!r}")
-    fs = cv2.FileStorage(str(path), cv2.FILE_STORAGE_READ)
+    fs = open_storage(path, lambda msg: ValueError(f"dictionary: {msg}"))
     try:
         d = cv2.aruco.Dictionary()
-        ok = fs.isOpened() and d.readDictionary(fs.root())
+        ok = d.readDictionary(fs.root())
+    except cv2.error:
+        ok = False
     finally:
         fs.release()
     if not ok:
@@ -58,6 +66,11 @@ def get_dictionary(dictionary="DICT_ARUCO_ORIGINAL"):
                              f"'DICT_ARUCO_ORIGINAL', got {dictionary!r}")
         return _predefined(code)
     if isinstance(dictionary, (int, np.integer)) and not isinstance(dictionary, bool):
+        if int(dictionary) not in PREDEFINED.values():
+            raise ValueError(f"dictionary: {dictionary!r} is not one of OpenCV's predefined "
+                             f"ArUco dictionaries (codes {min(PREDEFINED.values())}.."
+                             f"{max(PREDEFINED.values())}, cv2.aruco.DICT_*); pass a name "
+                             f"such as 'DICT_ARUCO_ORIGINAL'")
         return _predefined(int(dictionary))
     raise ValueError(f"dictionary: expected a name, a cv2.aruco constant or a "
                      f"cv2.aruco.Dictionary, got {dictionary!r}")
