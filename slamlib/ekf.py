@@ -84,13 +84,14 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q:
     """
     r, m = ROBOT, slice(3, None)
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
-    P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # P_rr = A P_rr A' + W Q W'
+    P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # [P1] P_rr = A P_rr A' + W Q W'
     if not math.isfinite(x_r @ _ONES3 + P_rr.trace()):    # (P_rm overflows only if P_rr does)
         raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
     x[r] = x_r
-    P[r, m] = A @ P[r, m]                                 # P_rm = A P_rm
-    P[m, r] = P[r, m].T                                   # P_mr = P_rm'
+    P[r, m] = A @ P[r, m]                                 # [P2] P_rm = A P_rm
+    P[m, r] = P[r, m].T                                   # [P3] P_mr = P_rm'
     P[r, r] = (P_rr + P_rr.T) / 2                         # (symmetric to the last bit)
+    #                                                       [P4] P_mm = P_mm: the map stays
 
 
 def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
@@ -223,10 +224,11 @@ def augment(x: np.ndarray, P: np.ndarray, n: int, m: np.ndarray, J1: np.ndarray,
     through it, with every landmark already mapped; the old block of P is untouched.
     """
     r, l, a = ROBOT, slice(n, n + 2), slice(0, n)
-    x[l] = m                                                # x_l = g(x_r, z)
-    P[l, a] = J1 @ P[r, a]                                  # P_lx = J1 P_rx
-    P[a, l] = P[l, a].T                                     # P_xl = P_lx'
-    P[l, l] = landmark_covariance(J1, P[r, r], J2, R)       # P_ll = J1 P_rr J1' + J2 R J2'
+    x[l] = m                                                # [A1] x_l = g(x_r, z)
+    P[l, a] = J1 @ P[r, a]                                  # [A2] P_lx = J1 P_rx
+    P[a, l] = P[l, a].T                                     #      P_xl = P_lx'
+    P[l, l] = landmark_covariance(J1, P[r, r], J2, R)       # [A3] P_ll = J1 P_rr J1' + J2 R J2'
+    #                                                         [A4] the old block of P untouched
 
 
 def gate_threshold(gate: float | None, dof: int = 2) -> float:
