@@ -187,7 +187,8 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
         Their individual distances (:func:`individual_d2`); a pair is a
         candidate when ``d2 < chi2.ppf(gate, 2)``.
     C : numpy.ndarray, shape (2N, 2N)
-        Covariance of the N predicted readings ``H P H^T`` (:func:`pair_covariance`).
+        Covariance of the N predicted readings ``H P H^T`` (the filter builds it with
+        :func:`slamlib.ekf.innovation_covariance`, R = 0).
     R : numpy.ndarray, shape (k, 2, 2)
         The readings' noise.
     gate : float

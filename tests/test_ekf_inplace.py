@@ -146,7 +146,10 @@ def test_long_run_keeps_p_symmetric_to_rounding_and_positive_definite():
             worst = max(worst, asymmetry(f.P))
     P = f.P
     worst = max(worst, asymmetry(P))
-    assert worst <= 1e-15
+    # above n = 512 the joint update subtracts W'W in blocks of rows, and the two halves of P
+    # are rounded in their own order: a few ulps of asymmetry (1.0e-15 measured here at 400
+    # steps)
+    assert worst <= 1e-14
     assert np.min(np.linalg.eigvalsh(0.5 * (P + P.T))) > 0.0
     np.linalg.cholesky(P)
 

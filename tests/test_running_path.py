@@ -20,9 +20,9 @@ from slamlib.course.association_study import make_filter, run_without_ids
 #: What each chapter prints (inspect.getsource), by chapter.
 PRINTED = {
     "03": [models.observe_landmarks, models.range_bearing, ekf.innovation,
-           ekf.stacked_jacobian, ekf.innovation_covariance, ekf.joint_update],
+           ekf.stacked_jacobian, ekf.innovation_covariance, ekf.gate, ekf.joint_update],
     "04": [models.inverse_observe, models.inverse_observation_jacobians, ekf.augment,
-           ekf.landmark_covariance],
+           ekf.landmark_covariance, ekf.predict],
     "05": [ekf.predict, ekf.EKFLocalization.update, ekf.EKFLocalization._gate_ids, ekf.gate,
            ekf.joint_update, ekf.augment, ConfirmedSLAM.update],
     "06": [ekf.LinearisedEKFSLAM.jacobians],
