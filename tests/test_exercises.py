@@ -931,3 +931,68 @@ def test_view_checker_cases_need_the_wrap():
                   for p, pts, h, r in cases)
     inside = sum(int(in_field_of_view(p, pts, h, r).sum()) for p, pts, h, r in cases)
     assert differs >= 2 and 20 <= inside <= 400
+
+
+def _chapter05_cells():
+    import json
+    from pathlib import Path
+
+    nb = json.loads((Path(__file__).resolve().parents[1] / "notebooks" / "05_ekf_slam.ipynb")
+                    .read_text(encoding="utf-8"))
+    return [("".join(c["source"]), c["cell_type"], c["metadata"].get("tags", []))
+            for c in nb["cells"]]
+
+
+def test_chapter05_gate_stub_asks_for_the_pair_its_checker_wants(capsys):
+    # the stub's comment and the chapter's exercise text ask for (d2, accept), and a
+    # function written from the stub's comment line by line passes check_gate
+    from scipy.stats import chi2
+
+    from slamlib.course.checkers_ch05 import check_gate
+
+    cells = _chapter05_cells()
+    stub = next(s for s, kind, tags in cells
+                if kind == "code" and "def my_gate" in s and "solution" not in tags)
+    assert "return the pair (d2, accept)" in stub
+    assert "(d2, accept)" in next(s for s, kind, _ in cells
+                                  if kind == "markdown" and "my_gate(z, z_pred, S, prob)" in s)
+
+    def from_the_comment(z, z_pred, S, prob):
+        y = np.asarray(z, float) - np.asarray(z_pred, float)
+        y[1] = (y[1] + np.pi) % (2 * np.pi) - np.pi        # its bearing wrapped
+        d2 = float(y @ np.linalg.solve(S, y))              # d2 = y^T S^-1 y
+        return d2, d2 < chi2.ppf(prob, 2)                  # accept = d2 < chi2.ppf(prob, 2)
+
+    assert check_gate(from_the_comment) is True
+    assert "correct" in capsys.readouterr().out
+
+
+def test_chapter05_augment_exercise_gives_g_and_its_jacobians():
+    # my_augment needs chapter 04's g: the exercise states g, J1 and J2 before the stub, and
+    # the stated J1, J2 are the derivatives of the stated g (finite differences)
+    cells = _chapter05_cells()
+    stub_at = next(i for i, (s, kind, tags) in enumerate(cells)
+                   if kind == "code" and "def my_augment" in s and "solution" not in tags)
+    text = "".join(s for s, kind, _ in cells[:stub_at] if kind == "markdown")
+    for piece in (r"x_B + \rho\cos(\theta+\beta)", r"y_B + \rho\sin(\theta+\beta)",
+                  r"J_1 = \partial g/\partial \mathbf x_B", r"J_2 = \partial g/\partial \mathbf z",
+                  r"1 & 0 & -\rho\sin(\theta+\beta) \\ 0 & 1 & \rho\cos(\theta+\beta)",
+                  r"\cos(\theta+\beta) & -\rho\sin(\theta+\beta) \\ "
+                  r"\sin(\theta+\beta) & \rho\cos(\theta+\beta)"):
+        assert piece in text, piece
+
+    def g(pose, z):
+        return pose[:2] + z[0] * np.array([np.cos(pose[2] + z[1]), np.sin(pose[2] + z[1])])
+
+    rng = np.random.default_rng(3)
+    for _ in range(5):
+        pose, z = rng.uniform(-2, 2, 3), np.array([rng.uniform(0.5, 3), rng.uniform(-1, 1)])
+        a, rho = pose[2] + z[1], z[0]
+        J1 = np.array([[1, 0, -rho * np.sin(a)], [0, 1, rho * np.cos(a)]])
+        J2 = np.array([[np.cos(a), -rho * np.sin(a)], [np.sin(a), rho * np.cos(a)]])
+        eps = 1e-6
+        fd1 = np.column_stack([(g(pose + eps * e, z) - g(pose - eps * e, z)) / (2 * eps)
+                               for e in np.eye(3)])
+        fd2 = np.column_stack([(g(pose, z + eps * e) - g(pose, z - eps * e)) / (2 * eps)
+                               for e in np.eye(2)])
+        assert np.allclose(J1, fd1, atol=1e-7) and np.allclose(J2, fd2, atol=1e-7)

@@ -260,8 +260,67 @@ def upd_K_wrong_shape(x, P, z, z_pred, H, R):
     return x + K @ (z - z_pred).reshape(-1), P
 
 
+def upd_gain_R_inverse(x, P, z, z_pred, H, R):
+    y = (z - z_pred).reshape(-1)
+    y[1::2] = wrap_angle(y[1::2])
+    K = P @ H.T @ np.linalg.inv(R)                  # R^-1 where S^-1 belongs
+    x = x + K @ y
+    x[2] = wrap_angle(x[2])
+    I_KH = np.eye(len(x)) - K @ H
+    Pn = I_KH @ P @ I_KH.T + K @ R @ K.T
+    return x, (Pn + Pn.T) / 2
+
+
+def upd_gain_R_inverse_short_form(x, P, z, z_pred, H, R):
+    y = (z - z_pred).reshape(-1)
+    y[1::2] = wrap_angle(y[1::2])
+    K = np.linalg.solve(R, H @ P).T                 # P H^T R^-1, written with solve
+    x = x + K @ y
+    x[2] = wrap_angle(x[2])
+    Pn = (np.eye(len(x)) - K @ H) @ P
+    return x, (Pn + Pn.T) / 2
+
+
+def upd_no_R_in_S_short_form(x, P, z, z_pred, H, R):
+    y = (z - z_pred).reshape(-1)
+    y[1::2] = wrap_angle(y[1::2])
+    K = P @ H.T @ np.linalg.inv(H @ P @ H.T)
+    x = x + K @ y
+    x[2] = wrap_angle(x[2])
+    Pn = (np.eye(len(x)) - K @ H) @ P
+    return x, (Pn + Pn.T) / 2
+
+
+def upd_no_inverse_KSK(x, P, z, z_pred, H, R):
+    y = (z - z_pred).reshape(-1)
+    y[1::2] = wrap_angle(y[1::2])
+    S = H @ P @ H.T + R
+    K = P @ H.T @ S                                 # the inverse forgotten
+    x = x + K @ y
+    x[2] = wrap_angle(x[2])
+    Pn = P - K @ S @ K.T
+    return x, (Pn + Pn.T) / 2
+
+
+def upd_library_form(x, P, z, z_pred, H, R):
+    # the library's covariance: P - W^T W with the whitened gain W = L^-1 H P, S = L L^T
+    y = (z - z_pred).reshape(-1)
+    y[1::2] = wrap_angle(y[1::2])
+    L = np.linalg.cholesky(H @ P @ H.T + R)
+    W = np.linalg.solve(L, H @ P)
+    x = x + W.T @ np.linalg.solve(L, y)
+    x[2] = wrap_angle(x[2])
+    Pn = P - W.T @ W
+    return x, (Pn + Pn.T) / 2
+
+
 @pytest.mark.parametrize("fn, words", [
     (upd_short_form, "(I - K H) P is symmetric only in exact arithmetic"),
+    (upd_gain_R_inverse, "your gain uses R^-1 where S^-1 belongs"),
+    (upd_gain_R_inverse_short_form, "your gain uses R^-1 where S^-1 belongs"),
+    (upd_gain_R_inverse_short_form, "(I - K H) P is not the Joseph form either"),
+    (upd_no_R_in_S_short_form, "S = H P H^T + R: R is missing; with this gain (I - K H) P is not"),
+    (upd_no_inverse_KSK, "the inverse of S is missing; with this gain P - K S K^T is not"),
     (upd_joseph_unsymmetrised, "Return 0.5 * (P + P.T)"),
     (upd_unwrapped, "the bearing of the innovation is not wrapped"),
     (upd_robot_block_only, "the map block of P is the prior's"),
@@ -278,7 +337,7 @@ def test_joint_update_mistakes_are_named(fn, words, capsys):
 
 
 def test_joint_update_right_answers_pass(capsys):
-    for fn in (upd_right, fc._joint_update):
+    for fn in (upd_right, fc._joint_update, upd_library_form):
         ok, out = verdict(fc.check_joint_update, fn, capsys)
         assert ok and "correct" in out, out
     ok, out = verdict(fc.check_joint_update, stub, capsys)

@@ -363,18 +363,42 @@ def _update_cases(rng, n_cases: int):
         yield x, P, z, h, H, Rb
 
 
+_OPTIMAL_ONLY = ("; with this gain {form} is not the Joseph form either: (I - K H) P, "
+                 "P - K S K^T and (I - K H) P (I - K H)^T + K R K^T agree only at the optimal "
+                 "gain K = P H^T S^-1, "
+                 "and for any other K only the Joseph form is the covariance of the estimate")
+
+#: The gain mistakes of the joint update: hint -> how K is formed from P H^T, S, R and H P H^T.
+_GAIN_MISTAKES = {
+    "K = P H^T S^-1 with S = H P H^T + R: your gain uses R^-1 where S^-1 belongs (R is the "
+    "readings' noise alone; S adds the prediction's uncertainty H P H^T)":
+        lambda PHt, S, R, HPHt: PHt @ np.linalg.inv(R),
+    "K = P H^T S^-1: the inverse of S is missing":
+        lambda PHt, S, R, HPHt: PHt @ S,
+    "S = H P H^T + R: R is missing":
+        lambda PHt, S, R, HPHt: PHt @ np.linalg.inv(HPHt),
+}
+
+
 def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
     """The known mistakes of this exercise: hint -> a function giving the wrong answer."""
-    def variant(y_wrap=True, r_in_s=True, inverse=True, noise_term=True, R_use=Rb):
+    def variant(y_wrap=True, noise_term=True, R_use=Rb, gain=None, form="joseph"):
         y = (z - h).reshape(-1)
         if y_wrap:
             y = ekf.innovation(z, h).reshape(-1)
-        S = H @ P @ H.T + (R_use if r_in_s else 0.0)
-        K = P @ H.T @ (np.linalg.inv(S) if inverse else S)
+        HPHt = H @ P @ H.T
+        S = HPHt + R_use
+        K = (P @ H.T @ np.linalg.inv(S) if gain is None
+             else gain(P @ H.T, S, R_use, HPHt))
         xn = x + K @ y
         xn[2] = wrap_angle(xn[2])
         I_KH = np.eye(n) - K @ H
-        Pn = I_KH @ P @ I_KH.T + (K @ R_use @ K.T if noise_term else 0.0)
+        if form == "short":
+            Pn = I_KH @ P
+        elif form == "KSK":
+            Pn = P - K @ S @ K.T
+        else:
+            Pn = I_KH @ P @ I_KH.T + (K @ R_use @ K.T if noise_term else 0.0)
         return xn, Pn
 
     def map_old():
@@ -386,13 +410,6 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
         xn = wx.copy()
         xn[3:] = x[3:]
         return xn, wP
-
-    def short_form(R_use):
-        S = H @ P @ H.T + R_use
-        K = P @ H.T @ np.linalg.inv(S)
-        xn = x + K @ ekf.innovation(z, h).reshape(-1)
-        xn[2] = wrap_angle(xn[2])
-        return xn, (np.eye(n) - K @ H) @ P
 
     mistakes = {
         "the bearing of the innovation is not wrapped: z - h of two angles must be wrapped "
@@ -406,18 +423,20 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
             map_old_x,
         "the Joseph form is missing K R K^T: P <- (I - K H) P (I - K H)^T + K R K^T":
             lambda: variant(noise_term=False),
-        "S = H P H^T + R: R is missing":
-            lambda: variant(r_in_s=False),
-        "K = P H^T S^-1: the inverse of S is missing":
-            lambda: variant(inverse=False),
     }
+    forms = (("joseph", None), ("short", "(I - K H) P"), ("KSK", "P - K S K^T"))
+    for why, gain in _GAIN_MISTAKES.items():
+        for form, label in forms:
+            hint = why + ("" if label is None else _OPTIMAL_ONLY.format(form=label))
+            mistakes[hint] = lambda gain=gain, form=form: variant(gain=gain, form=form)
     for k, v in _student_globals(fn, ("Q",)).items():
+        Rq = ekf.block_diagonal(np.array([v] * m))
         mistakes[f"that is the notebook's {k} (the wheel-speed noise) in place of the "
                  "argument R (the readings' noise): use the function's R"] = (
-            lambda v=v: variant(R_use=ekf.block_diagonal(np.array([v] * m))))
+            lambda Rq=Rq: variant(R_use=Rq))
         mistakes[f"that is the notebook's {k} (the wheel-speed noise) in place of the "
                  "argument R (the readings' noise), in the short form: use the "
-                 "function's R"] = (lambda v=v: short_form(ekf.block_diagonal(np.array([v] * m))))
+                 "function's R"] = (lambda Rq=Rq: variant(R_use=Rq, form="short"))
     return mistakes
 
 
@@ -428,11 +447,15 @@ def check_joint_update(fn, n_cases: int = 6, seed: int = 13, verbose: bool = Tru
     (2m x 2m) block-diagonal. Expected (:func:`slamlib.ekf.joint_update`):
     ``y`` with wrapped bearings, ``S = H P H^T + R``, ``K = P H^T S^-1``,
     ``x + K y`` with the heading wrapped, and ``P`` by the Joseph form (or the
-    short form), returned exactly symmetric. Named mistakes: an unwrapped
-    bearing, ``(I - K H) P`` (or Joseph) without symmetrising, a notebook ``Q``
-    where ``R`` belongs, the map block of P (or of x) left at its old value,
-    the Joseph form without ``K R K^T``, ``S`` without ``R``, ``K`` without the
-    inverse, the heading not wrapped; a shape error gets a hint on H's layout.
+    short form, or ``P - K S K^T``: the three agree at this gain), returned
+    exactly symmetric. Named mistakes: an unwrapped bearing, ``(I - K H) P`` (or
+    Joseph) without symmetrising, a notebook ``Q`` where ``R`` belongs, the map
+    block of P (or of x) left at its old value, the Joseph form without
+    ``K R K^T``, a gain with ``R^-1`` where ``S^-1`` belongs, ``S`` without
+    ``R``, ``K`` without the inverse (each of the three with the Joseph form,
+    the short form or ``P - K S K^T``: with a wrong gain the last two are not
+    the Joseph form, and the hint says so), the heading not wrapped; a shape
+    error gets a hint on H's layout.
     """
     say = printer(verbose)
     name = name_of(fn)
