@@ -163,6 +163,8 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     a, b, c = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]      # S_i^-1 = [[c, -b], [-b, a]] / det
     y0, y1 = y[:, 0], y[:, 1]
     d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / (a * c - b * b)  # d2 = y' S_i^-1 y
+    if threshold == math.inf:                               # no gate: every reading
+        return d2, S_i, np.ones(d2.shape, dtype=bool)
     return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)
 
 
