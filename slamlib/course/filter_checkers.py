@@ -339,14 +339,15 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
 
 # --------------------------------------------------------------------------- the joint update
 def _update_cases(rng, n_cases: int):
-    """SLAM priors with 3 landmarks. Odd cases: m = 2 readings, one of them with a predicted
-    bearing near +pi and a reading across the seam, near -pi; even cases: m = 1 reading.
-    Cases 3 and 6 have a heading within 1e-6 of +-pi."""
+    """SLAM priors with 3 landmarks. Odd cases: m = 2 readings, one of them (landmark 5) with
+    a predicted bearing near +pi and a reading across the seam, near -pi: the first reading in
+    cases 2 and 6, the second in case 4 (so that wrapping only the first bearing fails);
+    even cases: m = 1 reading. Cases 3 and 6 have a heading within 1e-6 of +-pi."""
     for i in range(n_cases):
         heading = {2: np.pi - 1e-6, 5: -np.pi + 1e-6}.get(i % 6)   # the update may cross +-pi
         x, P = _random_state(rng, 3, heading=heading)
         P *= 0.3
-        slots = [5, 3] if i % 2 else [7]
+        slots = ([3, 5] if i % 4 == 3 else [5, 3]) if i % 2 else [7]
         if i % 2:                                    # landmark 5 straight behind the robot
             back = x[2] + np.pi - 0.01
             x[5:7] = x[:2] + rng.uniform(1.0, 3.0) * np.array([np.cos(back), np.sin(back)])
@@ -355,7 +356,7 @@ def _update_cases(rng, n_cases: int):
         H = _stacked_jacobian(x.size, slots, [a for a, _ in Hs], [b for _, b in Hs])
         noise = rng.normal(0.0, [0.05, 0.03], (len(slots), 2))
         if i % 2:
-            noise[0, 1] = 0.03                            # pushes the bearing across +pi
+            noise[slots.index(5), 1] = 0.03               # pushes the bearing across +pi
         z = h + noise
         z[:, 1] = wrap_angle(z[:, 1])
         Rb = ekf.block_diagonal(np.array([np.diag([0.05 ** 2, 0.03 ** 2]) * (1 + j)
@@ -384,7 +385,9 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
     """The known mistakes of this exercise: hint -> a function giving the wrong answer."""
     def variant(y_wrap=True, noise_term=True, R_use=Rb, gain=None, form="joseph"):
         y = (z - h).reshape(-1)
-        if y_wrap:
+        if y_wrap == "first":
+            y[1] = wrap_angle(y[1])
+        elif y_wrap:
             y = ekf.innovation(z, h).reshape(-1)
         HPHt = H @ P @ H.T
         S = HPHt + R_use
@@ -412,6 +415,10 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
         return xn, wP
 
     mistakes = {
+        "only the first bearing is wrapped (y[1], as in my_gate's single reading): with m "
+        "readings the flattened y holds a bearing at every odd index, y[1], y[3], ...; wrap "
+        "each of them (here the second reading crosses the +-pi seam)":
+            lambda: variant(y_wrap="first"),
         "the bearing of the innovation is not wrapped: z - h of two angles must be wrapped "
         "to [-pi, pi) (here one bearing is just below +pi, its reading just above -pi)":
             lambda: variant(y_wrap=False),
@@ -454,7 +461,8 @@ def check_joint_update(fn, n_cases: int = 6, seed: int = 13, verbose: bool = Tru
     ``K R K^T``, a gain with ``R^-1`` where ``S^-1`` belongs, ``S`` without
     ``R``, ``K`` without the inverse (each of the three with the Joseph form,
     the short form or ``P - K S K^T``: with a wrong gain the last two are not
-    the Joseph form, and the hint says so), the heading not wrapped; a shape
+    the Joseph form, and the hint says so), only the first bearing wrapped, the heading
+    not wrapped; a shape
     error gets a hint on H's layout.
     """
     say = printer(verbose)

@@ -72,9 +72,12 @@ def plot_exploration(ax, exploration, world=None, *, ellipse_every: float = 20.0
 
 def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
                              title: str | None = None):
-    """Coverage, mapped landmarks and position error (with its ``nsigma`` bound) against time.
+    """Coverage, mapped landmarks, the return rule's input and the position error against time.
 
-    The returns to a landmark are shaded. ``sigma_xy = sqrt(P_xx + P_yy)``.
+    Four panels: coverage; landmarks mapped; ``sigma_xy = sqrt(P_xx + P_yy)`` (the filter's
+    position uncertainty) with the return threshold, the two numbers the rule compares; the
+    true position error with the filter's ``nsigma * sigma_xy``. The returns to a landmark
+    are shaded. ``axes``: four axes to draw in (default: a new figure).
 
     Returns
     -------
@@ -85,35 +88,40 @@ def plot_exploration_history(exploration, *, nsigma: float = 2.0, axes=None,
     h = exploration.history()
     own = axes is None
     if own:
-        fig, axes = plt.subplots(3, 1, figsize=(7.2, 6.0), dpi=DPI, sharex=True)
+        fig, axes = plt.subplots(4, 1, figsize=(7.2, 7.4), dpi=DPI, sharex=True)
+    if len(axes) != 4:
+        raise ValueError(f"axes: expected 4 axes, got {len(axes)}")
     fig = axes[0].figure
     axes[0].plot(h["t"], 100 * h["coverage"], color="tab:green")
     axes[0].set_ylabel("coverage (%)")
     axes[0].set_ylim(0, 100)
     axes[1].step(h["t"], h["landmarks"], where="post", color="tab:blue")
-    axes[1].set_ylabel("landmarks mapped")
-    axes[1].yaxis.set_major_locator(MaxNLocator(nbins=5, integer=True))
-    axes[2].plot(h["t"], h["error_xy"], color="tab:red", label="position error (truth)")
-    axes[2].plot(h["t"], nsigma * h["sigma_xy"], "--", color="tab:blue",
+    axes[1].set_ylabel("landmarks")
+    axes[1].yaxis.set_major_locator(MaxNLocator(nbins=4, integer=True))
+    axes[2].plot(h["t"], h["sigma_xy"], color="tab:blue", label="sigma_xy (filter)")
+    sr = getattr(exploration.policy, "sigma_return", None)
+    if sr is not None:
+        axes[2].axhline(sr, color="tab:orange", lw=1.0, ls=":", label="return threshold")
+    axes[2].set_ylabel("sigma_xy (m)")
+    axes[2].set_ylim(0, 1.45 * max(float(np.max(h["sigma_xy"])), sr or 0.0))
+    axes[3].plot(h["t"], h["error_xy"], color="tab:red", label="position error (truth)")
+    axes[3].plot(h["t"], nsigma * h["sigma_xy"], "--", color="tab:blue",
                  label=f"{nsigma:g} sigma_xy (filter)")
-    axes[2].set_ylabel("position (m)")
-    axes[2].set_xlabel("t (s)")
-    # head room above the curves for a two-column legend that hides none of them
+    axes[3].set_ylabel("position (m)")
+    axes[3].set_xlabel("t (s)")
+    # head room above the curves for a legend that hides none of them
     top = float(np.nanmax(np.concatenate([h["error_xy"], nsigma * h["sigma_xy"]])))
-    axes[2].set_ylim(0, 1.6 * top if top > 0 else 1.0)
+    axes[3].set_ylim(0, 1.45 * top if top > 0 else 1.0)
     first = True
     for t0, t1, *_ in getattr(exploration.policy, "returns", []):
         for ax in axes:
             ax.axvspan(t0, t1, color="tab:orange", alpha=0.2,
                        label="return to a landmark" if (first and ax is axes[2]) else None)
         first = False
-    sr = getattr(exploration.policy, "sigma_return", None)
-    if sr is not None:
-        axes[2].axhline(nsigma * sr, color="tab:orange", lw=0.8, ls=":",
-                        label=f"{nsigma:g} x return threshold")
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
-    axes[2].legend(fontsize=8, loc="upper left", ncol=2)
+    axes[2].legend(fontsize=8, loc="upper left", ncol=3)
+    axes[3].legend(fontsize=8, loc="upper left", ncol=2)
     if title:
         axes[0].set_title(title)
     if own:

@@ -11,8 +11,9 @@ __all__ = ["plot_paths", "plot_yaw_rates", "plot_whiteness", "plot_reading_resid
            "plot_slam_comparison", "plot_heldout"]
 
 
-def plot_paths(ax, logs, world):
-    """The robots' Vicon paths and the landmarks, seen from above (z-down)."""
+def plot_paths(ax, logs, world, ids: bool = False):
+    """The robots' Vicon paths and the landmarks, seen from above (z-down); ``ids`` labels
+    each landmark with its barcode (they crowd where landmarks stand in groups)."""
 
     plots.world_axes(ax)
     pts = np.vstack([world.positions] + [lg.truth[:, :2] for lg in logs.values()])
@@ -25,12 +26,14 @@ def plot_paths(ax, logs, world):
         ax.plot(*lg.start_pose[:2], "o", color=ax.lines[-1].get_color(), ms=5)
     pos = world.positions
     ax.plot(pos[:, 0], pos[:, 1], "ks", ms=5, label="landmarks")
-    for i, p in world.landmarks().items():
-        ax.annotate(str(i), p, xytext=(3, 3), textcoords="offset points", fontsize=7)
+    if ids:
+        for i, p in world.landmarks().items():
+            ax.annotate(str(i), p, xytext=(3, 3), textcoords="offset points", fontsize=7)
     ax.legend(fontsize=8, loc="upper left", bbox_to_anchor=(1.02, 1.0))
     return ax
 
-def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
+def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0,
+                   legend: str = "best"):
     """Vicon's yaw rate against the logged command and the corrected one (z-down);
     ``cal`` an :class:`~slamlib.datasets.identify.CommandFit`."""
     from ..datasets import identify
@@ -44,10 +47,10 @@ def plot_yaw_rates(ax, log, cal, span: float = 40.0, start: float = 20.0):
     tf = fit.t - log.enc_t[0]
     mf = (tf >= start) & (tf <= start + span)
     ax.plot(tf[mf], cal.scale_w * fit.w_cmd[mf], color="tab:blue", lw=1,
-            label=f"x {cal.scale_w:.3f}, {cal.delay:.2f} s later")
+            label=f"command x {cal.scale_w:.3f}, {cal.delay:.2f} s later")
     ax.set_xlabel("time (s)")
     ax.set_ylabel("yaw rate, z-down (rad/s)")
-    ax.legend(fontsize=8)
+    ax.legend(fontsize=9, loc=legend)
     ax.grid(True, lw=0.4, alpha=0.5)
     return ax
 
@@ -74,11 +77,15 @@ def plot_heldout(ax, study, variant, reference="textbook", splits=None,
                  markers=("o", "s", "^", "D")):
     """Each held-out run (robot and split) as a dot: ``reference``'s ATE across, ``variant``'s
     up (log axes); below the diagonal ``variant`` did better."""
+    from matplotlib.ticker import FixedLocator, NullFormatter, ScalarFormatter
+
     splits = splits or study.splits
+    names = {"robots_excerpt": "robots, excerpt", "halves": "halves",
+             "excerpt_rest": "excerpt -> rest", "robots": "robots, full"}
     lo, hi = np.inf, 0.0
     for s, m in zip(splits, markers):
         a, b = study.ate(s, reference), study.ate(s, variant)
-        ax.plot(a, b, m, ms=6, mfc="none", mew=1.3, label=s.replace("_", " "))
+        ax.plot(a, b, m, ms=6, mfc="none", mew=1.3, label=names.get(s, s.replace("_", " ")))
         lo, hi = min(lo, a.min(), b.min()), max(hi, a.max(), b.max())
     lim = (0.8 * lo, 1.25 * hi)
     ax.plot(lim, lim, "k", lw=0.8)
@@ -86,6 +93,11 @@ def plot_heldout(ax, study, variant, reference="textbook", splits=None,
     ax.set_yscale("log")
     ax.set_xlim(lim)
     ax.set_ylim(lim)
+    ticks = [t for t in (0.1, 0.2, 0.3, 0.5, 1.0, 2.0, 3.0, 5.0, 10.0) if lim[0] <= t <= lim[1]]
+    for axis in (ax.xaxis, ax.yaxis):
+        axis.set_major_locator(FixedLocator(ticks))
+        axis.set_major_formatter(ScalarFormatter())
+        axis.set_minor_formatter(NullFormatter())
     ax.set_aspect("equal")
     ax.set_xlabel(f"ATE with {reference} (m)")
     ax.set_ylabel(f"ATE with {variant} (m)")

@@ -51,7 +51,11 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     ax.plot(pts[:, 0], pts[:, 1], "s", ms=8, zorder=5,
             label=f"landmark variables ({len(L)})", **_LM)
     for m, p in L.items():
-        ax.annotate(f"l{m}", p, textcoords="offset points", xytext=(5, -9), fontsize=8, **_LM)
+        # a landmark just to the right would hide the label: put it on the left
+        left = any(0.0 < q[0] - p[0] < 0.4 and abs(q[1] - p[1]) < 0.3
+                   for k, q in L.items() if k != m)
+        ax.annotate(f"l{m}", p, textcoords="offset points", xytext=(-7, -9) if left else (5, -9),
+                    ha="right" if left else "left", fontsize=8, **_LM)
     ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     if title:
         ax.set_title(title)
@@ -134,12 +138,13 @@ def plot_cost_per_step(map_size, ekf_work, isam2_work, *, ax=None, title: str | 
     return ax
 
 
-def plot_errors_at(axes, traces: dict, t, truth_at, colors=None, sigma_of=None):
+def plot_errors_at(axes, traces: dict, t, truth_at, colors=None, sigma_of=None, labels=None):
     """Position and heading errors of several estimates at the same times ``t`` (chapter 11).
 
     ``traces``: name -> Trace; each is sampled at ``t`` (the state after its last
     event at or before each time); ``truth_at``: the truth at any time (e.g.
     ``log.truth_at``). ``sigma_of``: the name whose 2-sigma bounds are drawn dotted.
+    ``labels``: name -> legend entry (default: the name).
     """
     from ..metrics import pose_error
     from .graph_mrclam import node_samples
@@ -152,8 +157,9 @@ def plot_errors_at(axes, traces: dict, t, truth_at, colors=None, sigma_of=None):
         x, P, _ = node_samples(tr, t)
         e = pose_error(x, truth)
         c = colors.get(name)
-        a0.plot(t - t[0], np.hypot(*e[:, :2].T), lw=1.1, color=c, label=name)
-        a1.plot(t - t[0], np.degrees(e[:, 2]), lw=1.1, color=c, label=name)
+        label = (labels or {}).get(name, name)
+        a0.plot(t - t[0], np.hypot(*e[:, :2].T), lw=1.1, color=c, label=label)
+        a1.plot(t - t[0], np.degrees(e[:, 2]), lw=1.1, color=c, label=label)
         if name == sigma_of:
             a0.plot(t - t[0], 2 * np.sqrt(P[:, 0, 0] + P[:, 1, 1]), lw=0.8, ls=":", color=c)
             s = 2 * np.degrees(np.sqrt(P[:, 2, 2]))
