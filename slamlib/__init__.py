@@ -7,15 +7,13 @@ One module per idea:
 - ``frames``       z-up (ROS) data into the course's z-down frame
 - ``checks``       finite-difference Jacobians and entry-by-entry comparison
 - ``worlds``       marker worlds (JSON): the report's arena and random ones
-- ``sim``          the simulated Kobuki: controller, wheels, encoders
+- ``sim``          the simulated Kobuki: controller, wheels, encoders (its loop compiled)
 - ``sensors``      the analytic marker sensor and the readings' type
 - ``vision``       the camera (a package): ``camera`` and calibration, ``markers``, ``render`` a
                    view, ``detect`` markers and their pose, the ``noise`` model, the ``sensor``
 - ``runs``         recorded runs (CSV + JSON) and their events
-- ``ekf``          map-based EKF localisation and EKF SLAM (structured, O(n^2))
-- ``kernels``      the filters' and the simulator's inner loops, compiled (numba)
-- ``ekf_dense``    the dense textbook EKF, the reference the tests and benchmark compare with
-- ``ekf_textbook`` the EKF's equations one per line (predict, joint update, augment, NEES)
+- ``ekf``          the EKF, one step per function (predict, stacked H, gate, joint update,
+                   augment) and the filters over them: localisation, SLAM, FEJ, ideal (ch. 03-06)
 - ``metrics``      NEES, NIS, chi-square bands, trajectory error
 - ``runner``       runs a filter over a recorded run: its trace, and the one way to build it
 - ``confirmation`` EKF SLAM that maps a new id only after a second consistent sighting (ch. 05)

@@ -42,7 +42,7 @@ are added). As in the paper, joint compatibility is tested at every
 extension, i.e. every prefix of the answer (in reading order) is jointly
 compatible. ``D2`` is updated incrementally with a Cholesky factor ``L`` of
 ``S_H``: each node solves ``L B^T = C_q`` by forward substitution
-(:func:`slamlib.kernels.solve_lower`, O(m^2)) and copies ``L`` into the
+(:func:`solve_lower`, O(m^2)) and copies ``L`` into the
 enlarged factor (O(m^2)); for the few pairs of one frame the node's cost is
 numpy's call overhead.
 
@@ -60,15 +60,22 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .kernels import solve_lower
 from .metrics import chi2_quantile
 
-__all__ = ["individual_d2", "nearest_neighbour", "pair_covariance", "joint_distance",
-           "JCBBResult", "jcbb", "DEFAULT_MAX_NODES"]
+__all__ = ["individual_d2", "nearest_neighbour", "joint_distance", "solve_lower", "JCBBResult",
+           "jcbb", "DEFAULT_MAX_NODES"]
 
 #: Default bound on the number of nodes JCBB visits in one frame.
 DEFAULT_MAX_NODES = 10_000
 
+
+def solve_lower(L: np.ndarray, B: np.ndarray) -> np.ndarray:
+    """``L^-1 B`` for a lower-triangular ``L`` (m x m) and ``B`` (m x k), by forward
+    substitution, O(m^2 k): row r is ``(B_r - sum_{j<r} L_rj X_j) / L_rr``."""
+    X = np.array(B, dtype=float)
+    for r in range(L.shape[0]):
+        X[r] = (X[r] - L[r, :r] @ X[:r]) / L[r, r]
+    return X
 
 
 def individual_d2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
@@ -127,42 +134,6 @@ def nearest_neighbour(d2: np.ndarray, threshold: float) -> np.ndarray:
     return out
 
 
-def pair_covariance(Hp: np.ndarray, Hl: np.ndarray, P_rr: np.ndarray, P_rl: np.ndarray,
-                    P_ll: np.ndarray) -> np.ndarray:
-    """Covariance of N predicted readings, ``H P H^T`` (2N x 2N), from the blocks it needs.
-
-    Row pair j is the predicted reading of landmark j, whose Jacobian is
-    ``[Hp_j, Hl_j]`` on the robot's 3 columns and landmark j's 2 columns::
-
-        C_jj' = Hp_j P_rr Hp_j'^T + Hp_j P_r,j' Hl_j'^T + Hl_j P_j,r Hp_j'^T + Hl_j P_jj' Hl_j'^T
-
-    Parameters
-    ----------
-    Hp : (N, 2, 3), Hl : (N, 2, 2)
-        Jacobians of each predicted reading w.r.t. the pose and its landmark.
-    P_rr : (3, 3)
-        The pose's covariance.
-    P_rl : (3, 2N)
-        Pose-landmark cross covariance, landmark j in columns 2j, 2j+1.
-    P_ll : (2N, 2N)
-        The landmarks' joint covariance. For a known map (localisation) pass
-        zeros for ``P_rl`` and ``P_ll``, and ``Hl`` is irrelevant.
-
-    Returns
-    -------
-    numpy.ndarray (2N, 2N), symmetric
-    """
-    N = Hp.shape[0]
-    A = Hp.reshape(2 * N, 3)                        # rows of the pose Jacobians, stacked
-    B = np.zeros((2 * N, 2 * N))                    # block-diagonal landmark Jacobians
-    for j in range(N):
-        B[2 * j:2 * j + 2, 2 * j:2 * j + 2] = Hl[j]
-    AP = A @ P_rr @ A.T
-    X = A @ P_rl @ B.T
-    C = AP + X + X.T + B @ P_ll @ B.T
-    return 0.5 * (C + C.T)
-
-
 def joint_distance(y: np.ndarray, C: np.ndarray) -> float:
     """Joint squared Mahalanobis distance ``y^T C^-1 y`` of one hypothesis.
 
@@ -216,7 +187,8 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
         Their individual distances (:func:`individual_d2`); a pair is a
         candidate when ``d2 < chi2.ppf(gate, 2)``.
     C : numpy.ndarray, shape (2N, 2N)
-        Covariance of the N predicted readings ``H P H^T`` (:func:`pair_covariance`).
+        Covariance of the N predicted readings ``H P H^T`` (the filter builds it with
+        :func:`slamlib.ekf.innovation_covariance`, R = 0).
     R : numpy.ndarray, shape (k, 2, 2)
         The readings' noise.
     gate : float
@@ -274,20 +246,13 @@ def jcbb(y: np.ndarray, d2: np.ndarray, C: np.ndarray, R: np.ndarray, gate: floa
             # incremental Cholesky of the joint covariance with pair (i, j) appended
             cq = C[np.ix_(idx, [2 * j, 2 * j + 1])] if idx else np.zeros((0, 2))
             Cqq = C[2 * j:2 * j + 2, 2 * j:2 * j + 2] + R[i]
-            if idx:                                        # B^T = L^-1 C_q, 2m x 2
-                Bt = np.array(cq, dtype=float)
-                solve_lower(L, Bt)
-                B = Bt.T
-            else:
-                B = np.zeros((2, 0))
+            B = solve_lower(L, cq).T if idx else np.zeros((2, 0))    # B' = L^-1 C_q, 2m x 2
             M = Cqq - B @ B.T
             try:
                 Lc = np.linalg.cholesky(0.5 * (M + M.T))
             except np.linalg.LinAlgError:
                 continue
-            v = (y[i, j] - B @ w)[:, None]                 # L_c^-1 (y - B w)
-            solve_lower(Lc, v)
-            v = v[:, 0]
+            v = solve_lower(Lc, (y[i, j] - B @ w)[:, None])[:, 0]     # L_c^-1 (y - B w)
             dnew = dist + float(v @ v)
             if dnew >= thresholds[pairs + 1]:
                 continue                                   # not jointly compatible

@@ -33,16 +33,14 @@ clutter reading never enters the map.
 from __future__ import annotations
 
 import dataclasses
-import numbers
 
 import numpy as np
 
-from . import runner as ex
-from .ekf import EKFSLAM, UpdateReport, gate_threshold
+from . import runner
+from .ekf import EKFSLAM, UpdateReport, gate_threshold, integer_at_least, landmark_covariance
 from .metrics import mahalanobis2
-from .models import KOBUKI_WHEEL_BASE, inverse_observation_jacobians, inverse_observe
+from .models import KOBUKI_WHEEL_BASE
 from .runs import Run
-from .validate import as_marker_ids, as_reading_covariances, as_readings
 
 __all__ = ["Candidate", "ConfirmedSLAM", "confirmed_slam"]
 
@@ -69,19 +67,12 @@ class Candidate:
     frame: int
 
 
-def _positive_int(name, value, minimum):
-    integral = isinstance(value, (numbers.Integral, np.integer))
-    if isinstance(value, (bool, np.bool_)) or not integral or value < minimum:
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
 class ConfirmedSLAM(EKFSLAM):
     """EKF SLAM in which a new id waits as a candidate until ``n_confirm`` consistent sightings.
 
     Parameters
     ----------
-    x0, P0, Q, R, wheel_base, gate, capacity
+    x0, P0, Q, R, wheel_base, gate, capacity, association
         As for :class:`~slamlib.ekf.EKFSLAM`.
     n_confirm : int
         Sightings needed before an id is added (1 = plain EKF SLAM).
@@ -97,34 +88,28 @@ class ConfirmedSLAM(EKFSLAM):
                  max_gap: int = 2, confirm: float = 0.95, association: str = "ids"):
         super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity,
                          association=association)
-        self.n_confirm = _positive_int("n_confirm", n_confirm, 1)
-        self.max_gap = _positive_int("max_gap", max_gap, 1)
+        self.n_confirm = integer_at_least("n_confirm", n_confirm, 1)
+        self.max_gap = integer_at_least("max_gap", max_gap, 1)
         if not 0.0 < confirm < 1.0:
             raise ValueError(f"confirm: expected a probability in (0, 1), got {confirm!r}")
         self.confirm_threshold = gate_threshold(confirm)
         self.candidates: dict[int, Candidate] = {}
         self.frame = 0
         self._next_candidate = 0        # names of the candidates without ids
-        if self.association != "ids":   # chapter 09: readings without ids
-            self.update = self._update_anonymous
 
-    def _update_anonymous(self, ids, z, R=None) -> UpdateReport:
-        """``update(None, z)`` without ids (chapter 09): :meth:`EKFSLAM.update`'s association,
-        and each reading far from every landmark goes to :meth:`_unmatched` (a candidate)."""
-        frame = self.frame
+    def update(self, ids, z, R=None) -> UpdateReport:
+        """:meth:`EKFSLAM.update`, in which a reading of no mapped landmark confirms a candidate
+        (status ``"new"``: added, from the updated pose) or is held as one (``"candidate"``)."""
         self.frame += 1
         try:
-            return EKFSLAM.update(self, ids, z, R)
+            return super().update(ids, z, R)
         except ValueError:
-            self.frame = frame                                       # unchanged after an error
+            self.frame -= 1                                          # unchanged after an error
             raise
 
-    def _sighting(self, pose, P_rr, z, R) -> tuple[np.ndarray, np.ndarray]:
-        """Position of a sighting and its covariance ``J1 P_rr J1^T + J2 R J2^T`` (the same
-        as in :meth:`update`, which chapter 05 prints and therefore keeps its own lines)."""
-        m = inverse_observe(pose, z)
-        J1, J2 = inverse_observation_jacobians(pose, z)
-        return m, J1 @ P_rr @ J1.T + J2 @ R @ J2.T
+    def preview(self, ids, z, R=None) -> UpdateReport:
+        raise ValueError("preview: ConfirmedSLAM holds new ids as candidates: apply update to "
+                         "a copy instead")
 
     def _consistency(self, prev: Candidate, m, C) -> float:
         """``d2`` between a sighting and a candidate; inf when the candidate is too old."""
@@ -132,96 +117,58 @@ class ConfirmedSLAM(EKFSLAM):
             return float("inf")
         return float(mahalanobis2(m - prev.position, C + prev.cov))
 
-    def _unmatched(self, readings, z, R):
-        """Without ids: each reading outside every gate confirms a candidate or starts one."""
-        for key in [c for c, prev in self.candidates.items()
-                    if self.frame - prev.frame > self.max_gap]:
-            del self.candidates[key]                                 # not seen again: dropped
-        pose, P_rr = self.pose, self.pose_cov
-        sightings = [self._sighting(pose, P_rr, z[i], R[i]) for i in readings]
-        keys = [c for c, prev in self.candidates.items() if prev.frame < self.frame]
-        # pairs (reading, candidate) that pass the test, closest first, each used once
-        pairs = sorted((self._consistency(self.candidates[c], m, C), q, c)
-                       for q, (m, C) in enumerate(sightings) for c in keys)
-        match: dict[int, int] = {}
-        taken = set()
-        for d2, q, c in pairs:
-            if d2 < self.confirm_threshold and q not in match and c not in taken:
-                match[q] = c
-                taken.add(c)
+    def _admit(self, ids, z, R):
+        """Each reading of no mapped landmark, seen from the updated pose, confirms a candidate
+        or starts one; the confirmed ones are added (:meth:`EKFSLAM._admit`)."""
+        k = z.shape[0]
+        m, J1, J2 = self.jacobians("initialisation", ids=np.full(k, -1) if ids is None else ids,
+                                   z=z)
+        C = [landmark_covariance(J1[q], self._P[:3, :3], J2[q], R[q]) for q in range(k)]
+        expired = [c for c, prev in self.candidates.items()
+                   if ids is None and self.frame - prev.frame > self.max_gap]
+        if ids is None:
+            match = self._match_anonymous(m, C, expired)
+        else:                       # with ids: the candidate of the same id, if consistent
+            match = {q: mid for q, mid in enumerate(ids.tolist()) if mid in self.candidates
+                     and self._consistency(self.candidates[mid], m[q], C[q])
+                     < self.confirm_threshold}
+        n = [self.candidates[match[q]].sightings + 1 if q in match else 1 for q in range(k)]
+        confirmed = [q for q in range(k) if n[q] >= self.n_confirm]
+        added = dict(zip(confirmed, (mid for _, mid in super()._admit(
+            None if ids is None else ids[confirmed], z[confirmed], R[confirmed]))))
+        for key in expired:                                          # not seen again: dropped
+            del self.candidates[key]
         out = []
-        for q, i in enumerate(readings):
-            m, C = sightings[q]
-            n = 1
-            if q in match:
-                n = self.candidates.pop(match[q]).sightings + 1
-            if n >= self.n_confirm:
-                mid = max(self._ids) + 1 if self._ids else 0
-                self._add_landmark(mid, z[i], R[i])
-                out.append(("new", mid))
-            else:
-                self.candidates[self._next_candidate] = Candidate(m, C, n, self.frame)
-                self._next_candidate += 1
-                out.append(("candidate", None))
+        for q in range(k):
+            key = match.get(q, None if ids is None else int(ids[q]))
+            self.candidates.pop(key, None)
+            if q in added:
+                out.append(("new", added[q]))
+                continue
+            if ids is None:
+                key, self._next_candidate = self._next_candidate, self._next_candidate + 1
+            self.candidates[key] = Candidate(m[q], C[q], n[q], self.frame)
+            out.append(("candidate", None))
         return out
 
-    def update(self, ids, z, R=None) -> UpdateReport:
-        """:meth:`EKFSLAM.update` for mapped ids; new ids become candidates, then landmarks.
-
-        The report has one entry per reading, in the order given: mapped ids as
-        :meth:`EKFSLAM.update` reports them, ``"new"`` for an id confirmed (and
-        added) by this reading, ``"candidate"`` for one held back, ``"duplicate"``
-        for a second reading of an unmapped id in the same call.
-        """
-        ids = as_marker_ids(ids)                                           # the base class's checks
-        z = as_readings(z, ids.shape[0])
-        Rk = as_reading_covariances(R, self.R, ids.shape[0])
-        self.frame += 1
-        mapped = np.isin(ids, self.landmark_ids)
-        first = super().update(ids[mapped], z[mapped], np.ascontiguousarray(Rk[mapped]))
-        pose, P_rr = self.pose, self.pose_cov                       # after the joint update
-        status = np.array(["candidate"] * len(ids), dtype=object)
-        status[mapped] = first.status
-        confirmed, seen = [], set()
-        for i in np.flatnonzero(~mapped):
-            mid = int(ids[i])
-            if mid in seen:                                          # read twice in one frame
-                status[i] = "duplicate"
-                continue
-            seen.add(mid)
-            m = inverse_observe(pose, z[i])
-            J1, J2 = inverse_observation_jacobians(pose, z[i])
-            C = J1 @ P_rr @ J1.T + J2 @ Rk[i] @ J2.T
-            n = 1
-            prev = self.candidates.get(mid)
-            if (prev is not None and self.frame - prev.frame <= self.max_gap
-                    and mahalanobis2(m - prev.position, C + prev.cov) < self.confirm_threshold):
-                n = prev.sightings + 1                               # consistent: one more
-            if n >= self.n_confirm:
-                confirmed.append(i)
-                self.candidates.pop(mid, None)
-            else:
-                self.candidates[mid] = Candidate(m, C, n, self.frame)
-        if confirmed:                                                # all unmapped: added
-            super().update(ids[confirmed], z[confirmed], np.ascontiguousarray(Rk[confirmed]))
-            status[confirmed] = "new"
-
-        def spread(a, fill):                                         # back to the given order
-            out = np.full((len(ids),) + a.shape[1:], fill, dtype=a.dtype)
-            out[mapped] = a
-            return out
-
-        return dataclasses.replace(
-            first, ids=ids, z=z, status=tuple(str(s) for s in status), new=status == "new",
-            accepted=spread(first.accepted, False), d2=spread(first.d2, np.nan),
-            innovation=spread(first.innovation, np.nan),
-            predicted=spread(first.predicted, np.nan), S=spread(first.S, np.nan))
+    def _match_anonymous(self, m, C, expired) -> dict[int, int]:
+        """Without ids: each sighting goes to the closest consistent candidate (each at most
+        once) among those of earlier frames not ``expired`` (not seen within ``max_gap``)."""
+        keys = [c for c, prev in self.candidates.items()
+                if prev.frame < self.frame and c not in expired]
+        pairs = sorted((self._consistency(self.candidates[c], m[q], C[q]), q, c)
+                       for q in range(len(C)) for c in keys)
+        match: dict[int, int] = {}
+        for d2, q, c in pairs:
+            if d2 < self.confirm_threshold and q not in match and c not in match.values():
+                match[q] = c
+        return match
 
 
 def confirmed_slam(run: Run, *, gate: float | None = 0.95, n_confirm: int = 2,
-                   max_gap: int = 2, confirm: float = 0.95, Q=None, P0=ex.DEFAULT_P0,
-                   by: str = "capture", until: float | None = None) -> ex.Trace:
+                   max_gap: int = 2, confirm: float = 0.95, Q=None, P0=runner.DEFAULT_P0,
+                   by: str = "capture", until: float | None = None) -> runner.Trace:
     """:func:`slamlib.runner.slam` with :class:`ConfirmedSLAM` (chapter 05)."""
-    filt = ex.make_filter(ConfirmedSLAM, run, Q=Q, P0=P0, gate=gate, n_confirm=n_confirm,
-                          max_gap=max_gap, confirm=confirm)
-    return ex.run_filter(run, filt, by=by, until=until)
+    filt = runner.make_filter(ConfirmedSLAM, run, Q=Q, P0=P0, gate=gate, n_confirm=n_confirm,
+                              max_gap=max_gap, confirm=confirm)
+    return runner.run_filter(run, filt, by=by, until=until)

@@ -54,7 +54,7 @@ from dataclasses import dataclass, field, replace
 import numpy as np
 
 from .ekf import EKFSLAM
-from .models import tick_difference, wheel_speeds_from_ticks, wrap_angle
+from .models import range_bearing, tick_difference, wheel_speeds_from_ticks
 from .runner import DEFAULT_P0, Trace, TraceRecorder, reading_covariances
 from .runs import Run
 from .sensors import DEFAULT_FOV_HALF_ANGLE, AnalyticMarkerSensor
@@ -97,9 +97,8 @@ def in_field_of_view(pose, points, fov_half_angle: float = DEFAULT_FOV_HALF_ANGL
     """
     pose = as_vector("pose", pose, 3)
     p = np.asarray(points, dtype=float).reshape(-1, 2)
-    dx, dy = p[:, 0] - pose[0], p[:, 1] - pose[1]
-    bearing = wrap_angle(np.arctan2(dy, dx) - pose[2]) if p.shape[0] else np.zeros(0)
-    return (np.hypot(dx, dy) <= max_range) & (np.abs(bearing) <= fov_half_angle)
+    rho, bearing = range_bearing(p[:, 0] - pose[0], p[:, 1] - pose[1], pose[2])
+    return (rho <= max_range) & (np.abs(bearing) <= fov_half_angle)
 
 
 def position_sigma(P) -> float:
@@ -285,8 +284,8 @@ class Explorer:
         if idx.size == 0:
             return None
         d = self.grid.centres[idx] - np.asarray(pose)[:2]
-        bearing = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - pose[2])
-        cost = np.hypot(d[:, 0], d[:, 1]) + self.turn_cost * np.abs(bearing)
+        dist, bearing = range_bearing(d[:, 0], d[:, 1], pose[2])
+        cost = dist + self.turn_cost * np.abs(bearing)
         return int(idx[np.argmin(cost)])
 
     def choose_anchor(self, filt: EKFSLAM) -> int | None:

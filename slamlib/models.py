@@ -25,14 +25,13 @@ import math
 
 import numpy as np
 
-from . import kernels as _kernels
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 
 __all__ = [
     "KOBUKI_WHEEL_BASE", "KOBUKI_WHEEL_RADIUS", "KOBUKI_TICKS_PER_REV",
     "wrap_angle", "tick_difference", "wheel_speeds", "wheel_speeds_from_ticks",
-    "body_velocity", "motion_model", "motion_jacobians", "motion_terms", "motion_model_batch",
-    "observe", "observation_jacobians", "observe_landmarks",
+    "body_velocity", "body_speeds", "motion_model", "motion_jacobians", "motion_model_batch",
+    "observe", "observation_jacobians", "observe_landmarks", "range_bearing",
     "polar_to_cartesian", "polar_to_cartesian_jacobian",
     "compose_point", "compose_point_jacobians",
     "compose_poses", "compose_poses_jacobians", "invert_pose",
@@ -57,42 +56,30 @@ def wrap_angle(angle):
     Parameters
     ----------
     angle : float or array_like
-        Angle(s) in radians.
+        Angle(s) in radians (finite).
 
     Returns
     -------
     float or numpy.ndarray
         The same angle(s) in [-pi, pi); a float for a scalar input.
     """
-    if type(angle) is float or type(angle) is np.float64:
-        return float(_wrap_scalar(angle))          # the same result, without the array machinery
     a = np.asarray(angle, dtype=float)
     if not np.isfinite(a).all():
         raise ValueError(f"angle: expected finite numbers, got {angle!r}")
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    # np.mod can round up to exactly 2*pi for tiny negative inputs.
-    w = np.where(w >= np.pi, w - 2.0 * np.pi, w)
+    w = wrap(a)
     return float(w) if w.ndim == 0 else w
 
 
-def _wrap_array(a: np.ndarray) -> np.ndarray:
-    """:func:`wrap_angle` of a float array known to be finite: the same operations, unchecked."""
-    w = np.mod(a + np.pi, 2.0 * np.pi) - np.pi
-    return np.where(w >= np.pi, w - 2.0 * np.pi, w)
+def wrap(a):
+    """:func:`wrap_angle` without the check: ``(a + pi) mod 2 pi - pi``, floats or arrays.
 
-
-def _wrap_scalar(a: float) -> float:
-    """:func:`wrap_angle` of one finite float, unchecked, bit for bit the same.
-
-    For the library's own per-step loops (the simulator, the filters' predict):
-    Python's float ``%`` is C ``fmod`` followed by the same sign correction as
-    ``np.mod``, so the result equals ``wrap_angle(a)`` exactly
-    (``tests/test_models.py`` checks it), at a tenth of the cost.
+    The one formula of the wrap (the filters, the simulator and the sensors use
+    it). ``mod`` takes the sign of the divisor (Python's ``%`` on floats and
+    numpy's on arrays alike), and can round up to exactly ``2 pi`` for tiny
+    negative inputs: that case is moved down by ``2 pi``.
     """
-    if not math.isfinite(a):
-        raise ValueError(f"angle: expected finite numbers, got {a!r}")
     w = (a + _PI) % _TWO_PI - _PI
-    return w - _TWO_PI if w >= _PI else w
+    return w - _TWO_PI * (w >= _PI)
 
 
 # --------------------------------------------------------------------------- wheels
@@ -169,19 +156,36 @@ def body_velocity(u, wheel_base: float = KOBUKI_WHEEL_BASE) -> tuple[float, floa
         Linear speed V (m/s) and angular speed w (rad/s).
     """
     u = as_vector("u", u, 2)
-    b = as_positive("wheel_base", wheel_base)
-    return 0.5 * (u[0] + u[1]), (u[1] - u[0]) / b
+    return body_speeds(float(u[0]), float(u[1]), as_positive("wheel_base", wheel_base))
+
+
+def body_speeds(V_R, V_L, b):
+    """:func:`body_velocity` without the checks, for floats or arrays: ``(V, w)``.
+
+    The one home of ``V = (V_R + V_L)/2`` and ``w = (V_L - V_R)/b`` (z-down):
+    the motion model, the simulator and the batch model use it.
+    """
+    return 0.5 * (V_R + V_L), (V_L - V_R) / b
 
 
 # --------------------------------------------------------------------------- motion
 def _check_motion_args(x, u, dt, wheel_base):
     x = as_vector("x", x, 3)
-    u = as_vector("u", u, 2)
-    dt = as_finite_scalar("dt", dt)
+    u, dt = _check_control(u, dt)
+    return x, u, dt, as_positive("wheel_base", wheel_base)
+
+
+def _check_control(u, dt) -> tuple[np.ndarray, float]:
+    """``u`` (2,) finite and ``dt >= 0`` finite, or a ValueError naming them (the one check of a
+    prediction's input; an array of two finite floats and a float pass without copies)."""
+    if not (type(u) is np.ndarray and u.dtype == np.float64 and u.shape == (2,)
+            and math.isfinite(u[0]) and math.isfinite(u[1])):
+        u = as_vector("u", u, 2)
+    if type(dt) is not float or not math.isfinite(dt):
+        dt = as_finite_scalar("dt", dt)
     if dt < 0.0:
         raise ValueError(f"dt: expected a non-negative time step, got {dt}")
-    b = as_positive("wheel_base", wheel_base)
-    return x, u, dt, b
+    return u, dt
 
 
 def motion_model(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.ndarray:
@@ -214,39 +218,13 @@ def motion_model(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.n
     return _motion_model(*_check_motion_args(x, u, dt, wheel_base))
 
 
-def _motion_model(x: np.ndarray, u: np.ndarray, dt: float, b: float) -> np.ndarray:
+def _motion_model(x, u, dt: float, b: float) -> np.ndarray:
     """:func:`motion_model` on checked arguments (the filters' predict checks them once)."""
-    dx, dy, dth, *_ = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
-    return np.array([x[0] + dx, x[1] + dy, _wrap_scalar(float(x[2]) + dth)])
-
-
-#: The scalars of the motion model and its Jacobians (chapter 01): ``(dx, dy, dtheta, hc, hs,
-#: g)`` from ``(theta, V_R, V_L, dt, b)``; the one place of these formulas, compiled (it is
-#: :func:`slamlib.kernels.motion_terms`, whose docstring gives them), so that
-#: :func:`motion_model`, :func:`motion_jacobians` and the filters' prediction share it.
-motion_terms = _kernels.motion_terms
-
-
-def _jacobian_matrices(dx: float, dy: float, hc: float, hs: float, g: float
-                       ) -> tuple[np.ndarray, np.ndarray]:
-    """``(A, W)`` as arrays from :func:`motion_terms`."""
-    A = np.array([[1.0, 0.0, -dy],
-                  [0.0, 1.0, dx],
-                  [0.0, 0.0, 1.0]])
-    W = np.array([[hc, hc],
-                  [hs, hs],
-                  [-g, g]])
-    return A, W
-
-
-def _motion_step(x: np.ndarray, u: np.ndarray, dt: float, b: float
-                 ) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
-    """``(motion_model, *motion_jacobians)`` on checked arguments, the trigonometry done once
-    (:func:`motion_terms`), so the results are bit for bit those of the two public functions.
-    """
-    dx, dy, dth, hc, hs, g = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
-    new = np.array([x[0] + dx, x[1] + dy, _wrap_scalar(float(x[2]) + dth)])
-    return (new, *_jacobian_matrices(dx, dy, hc, hs, g))
+    V, w = body_speeds(float(u[0]), float(u[1]), b)
+    th = float(x[2])
+    return np.array([x[0] + V * math.cos(th) * dt,          # x + V cos(theta) dt
+                     x[1] + V * math.sin(th) * dt,          # y + V sin(theta) dt
+                     wrap(th + w * dt)])                    # theta + w dt, wrapped
 
 
 def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
@@ -273,11 +251,17 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
     return _motion_jacobians(*_check_motion_args(x, u, dt, wheel_base))
 
 
-def _motion_jacobians(x: np.ndarray, u: np.ndarray, dt: float, b: float
-                      ) -> tuple[np.ndarray, np.ndarray]:
-    """:func:`motion_jacobians` on checked arguments."""
-    dx, dy, _, hc, hs, g = motion_terms(float(x[2]), float(u[0]), float(u[1]), dt, b)
-    return _jacobian_matrices(dx, dy, hc, hs, g)
+def _motion_jacobians(x, u, dt: float, b: float) -> tuple[np.ndarray, np.ndarray]:
+    """:func:`motion_jacobians` on checked arguments (the filters' predict checks them once)."""
+    V, _ = body_speeds(float(u[0]), float(u[1]), b)
+    c, s = math.cos(float(x[2])), math.sin(float(x[2]))
+    A = np.array([[1.0, 0.0, -(V * s * dt)],              # d f / d x_{k-1}
+                  [0.0, 1.0, V * c * dt],
+                  [0.0, 0.0, 1.0]])
+    W = np.array([[0.5 * c * dt, 0.5 * c * dt],           # d f / d [w_R, w_L]
+                  [0.5 * s * dt, 0.5 * s * dt],
+                  [-(dt / b), dt / b]])
+    return A, W
 
 
 def motion_model_batch(X, U, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.ndarray:
@@ -308,19 +292,12 @@ def motion_model_batch(X, U, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -
     dt = as_finite_scalar("dt", dt)
     if dt < 0.0:
         raise ValueError(f"dt: expected a non-negative time step, got {dt}")
-    b = as_positive("wheel_base", wheel_base)
-    v, w = 0.5 * (U[:, 0] + U[:, 1]), (U[:, 1] - U[:, 0]) / b
+    v, w = body_speeds(U[:, 0], U[:, 1], as_positive("wheel_base", wheel_base))
     return np.column_stack([X[:, 0] + v * np.cos(X[:, 2]) * dt,
                             X[:, 1] + v * np.sin(X[:, 2]) * dt,
                             wrap_angle(X[:, 2] + w * dt)])
 
 # --------------------------------------------------------------------------- direct observation
-def _delta(pose, landmark):
-    pose = as_vector("pose", pose, 3)
-    landmark = as_vector("landmark", landmark, 2)
-    return pose, landmark[0] - pose[0], landmark[1] - pose[1]
-
-
 def observe(pose, landmark) -> np.ndarray:
     """Direct observation ``z = h(x_B, x_F)`` (report V.A, chapter 03).
 
@@ -373,14 +350,28 @@ def observation_jacobians(pose, landmark) -> tuple[np.ndarray, np.ndarray]:
     return H_pose[0], H_landmark[0]
 
 
+def range_bearing(dx, dy, theta):
+    """``h`` from the offsets of a point (floats or arrays, broadcast; no checks).
+
+    ``rho = sqrt(dx^2 + dy^2)`` and ``beta = atan2(dy, dx) - theta`` (wrapped),
+    with ``dx = x_F - x_B``, ``dy = y_F - y_B`` and ``theta`` the heading of
+    the frame the point is seen from: the one home of the formula, which the
+    filters (:func:`observe_landmarks`), the sensors and the data tools use.
+
+    Returns
+    -------
+    (rho, beta)
+    """
+    return np.hypot(dx, dy), wrap(np.arctan2(dy, dx) - theta)
+
+
 def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The direct observation of k landmarks and its Jacobians, vectorised (chapter 03).
 
     The one implementation of ``h`` and ``H``: :func:`observe` and
     :func:`observation_jacobians` are this function for one landmark, and the
-    filters' update runs it on every landmark a frame reads (as
-    ``slamlib.ekf.predict_readings``). Per landmark, with ``dx = x_F - x_B``,
-    ``dy = y_F - y_B``, ``q = dx^2 + dy^2`` and ``r = sqrt(q)``::
+    filters' update runs it on every landmark a frame reads. Per landmark, with
+    ``dx = x_F - x_B``, ``dy = y_F - y_B``, ``q = dx^2 + dy^2`` and ``r = sqrt(q)``::
 
         h          = [r, atan2(dy, dx) - theta]          (bearing wrapped)
         H_pose     = [[-dx/r, -dy/r,  0],   H_landmark = [[ dx/r, dy/r],
@@ -388,8 +379,8 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
 
     (The report prints ``+dx/q`` in ``H_pose[1, 1]`` and ``+dy/q`` in
     ``H_landmark[1, 0]``: both signs are wrong, appendix A.) A landmark on top
-    of the robot has no bearing: its rows come back NaN. The loop over the
-    landmarks is compiled (:func:`slamlib.kernels.observe_into`).
+    of the robot has no bearing: its rows of ``h``, ``H_landmark`` and the
+    first two columns of ``H_pose`` come back NaN. No checks: the callers check.
 
     Parameters
     ----------
@@ -400,11 +391,20 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
     -------
     (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
     """
-    L = np.ascontiguousarray(landmarks, dtype=float).reshape(-1, 2)
+    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    dx, dy = L[:, 0] - pose[0], L[:, 1] - pose[1]
+    r, beta = range_bearing(dx, dy, pose[2])                # h = [r, beta]
+    q = dx * dx + dy * dy
+    if not q.all():                                         # a landmark on the robot: no bearing
+        r, beta, q = (np.where(q > 0.0, v, np.nan) for v in (r, beta, q))
     k = L.shape[0]
-    h, Hp, Hl = np.empty((k, 2)), np.empty((k, 2, 3)), np.empty((k, 2, 2))
-    _kernels.observe_into(np.ascontiguousarray(pose, dtype=float), L, h, Hp, Hl)
-    return h, Hp, Hl
+    h, H_landmark, H_pose = np.empty((k, 2)), np.empty((k, 2, 2)), np.empty((k, 2, 3))
+    h[:, 0], h[:, 1] = r, beta
+    H_landmark[:, 0, 0], H_landmark[:, 0, 1] = dx / r, dy / r         # d rho / d x_F
+    H_landmark[:, 1, 0], H_landmark[:, 1, 1] = -dy / q, dx / q        # d beta / d x_F
+    H_pose[:, :, :2] = -H_landmark                          # H_pose = [-H_landmark, [0; -1]]
+    H_pose[:, 0, 2], H_pose[:, 1, 2] = 0.0, -1.0
+    return h, H_pose, H_landmark
 
 
 # --------------------------------------------------------------------------- inverse observation

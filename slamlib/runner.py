@@ -23,18 +23,10 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from .ekf import (
-    EKFSLAM,
-    FEJEKFSLAM,
-    EKFLocalization,
-    IdealEKFSLAM,
-    UpdateReport,
-    _EKFBase,
-)
+from .ekf import EKFSLAM, FEJEKFSLAM, EKFLocalization, IdealEKFSLAM, UpdateReport
 from .metrics import ate, nees, pose_error
 from .models import wrap_angle
 from .runs import Run
-from .validate import as_reading_covariances
 
 __all__ = ["Trace", "PendingFrame", "TraceRecorder", "reading_covariances", "run_filter",
            "make_filter", "default_R",
@@ -176,15 +168,6 @@ class TraceRecorder:
         if report is not None:
             self.reports.append((float(t), report))
 
-    def record_block(self, times: list[float], kind: str, poses: np.ndarray,
-                     covs: np.ndarray) -> None:
-        """Log k events at once: their times, the poses (k, 3) and covariances (k, 3, 3) after
-        each (e.g. the predictions between two frames, :meth:`EKFSLAM._predict_block`)."""
-        self.t.extend(times)
-        self.kind.extend([kind] * len(times))
-        self._x.append(poses)
-        self._P.append(covs)
-
     def trace(self, run: Run, filt, **extra) -> Trace:
         """The :class:`Trace`, with the run's truth at the logged times."""
         t = np.array(self.t)
@@ -224,41 +207,23 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     sensor = sensor_noise(run) if use_sensor_R else None
     pending = None
     rec = TraceRecorder(run.enc_t[0], filt)
-    predict = filt.predict
-    # The run's ids and readings were checked when it was made: an unchanged filter of
-    # slamlib.ekf takes them without checking them again (R is still checked).
-    checked = (isinstance(filt, _EKFBase) and type(filt).update is _EKFBase.update
-               and filt.association == "ids")
-    # a sensor model that guarantees a positive-definite R (see AnalyticMarkerSensor) needs no
-    # check of it per frame either
-    sensor_R_ok = getattr(sensor, "R_always_positive_definite", False) is True
-    # The course's own prediction runs the predictions between two frames in one call
-    # (the same arithmetic, bit for bit, as one call of predict per step).
-    blocks = (isinstance(filt, _EKFBase) and type(filt).predict is _EKFBase.predict
-              and filt._fast_predict())
     u_all, dt_all, events = run._event_blocks(by)      # the events of run.events(by)
-    Q_all = run.Q_steps(dt_all) if use_run_Q_steps else None   # None: the filter's Q
+    dt_all = dt_all.tolist()
+    Q_all = run.Q_steps(np.asarray(dt_all)) if use_run_Q_steps else None   # None: filter's Q
     # each reading's R = sensor.R(range), for all the run's readings at once
     cam = run.camera
     R_rows = reading_covariances(sensor, np.column_stack([cam.rho, cam.bearing]))
     for event in events:
-        if event[0] == 0:
+        if event[0] == 0:                               # the predictions up to the next frame
             _, j0, j1, times = event
-            if max_time is not None and times[-1] > max_time:
-                keep = int(np.searchsorted(times, max_time, side="right"))
-                j1, times = j0 + keep, times[:keep]
-            if blocks:
-                rec.record_block(times, "predict", *filt._predict_block(
-                    u_all[j0:j1], dt_all[j0:j1], None if Q_all is None else Q_all[j0:j1]))
-            else:
-                for j, t in zip(range(j0, j1), times):
-                    if Q_all is None:                 # a filter written by hand takes (u, dt)
-                        predict(u_all[j], float(dt_all[j]))
-                    else:
-                        predict(u_all[j], float(dt_all[j]), Q_all[j])
-                    rec.record(t, "predict", filt)
-            if j1 < event[2]:
-                break
+            for j, t in zip(range(j0, j1), times):
+                if max_time is not None and t > max_time:
+                    return rec.trace(run, filt, pending=pending)
+                if Q_all is None:                     # a filter written by hand takes (u, dt)
+                    filt.predict(u_all[j], dt_all[j])
+                else:                                 # this step's own Q (chapter 10)
+                    filt.predict(u_all[j], dt_all[j], Q_all[j])
+                rec.record(t, "predict", filt)
             continue
         _, t, obs, r0 = event
         if max_time is not None and t > max_time:
@@ -269,12 +234,7 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
         if until is not None and t >= until - 1e-9:
             pending = PendingFrame(float(t), obs, R)
             break
-        if checked:
-            report = filt._update_ids(obs.ids, obs.z, R if sensor_R_ok else
-                                      as_reading_covariances(R, filt.R, len(obs)))
-        else:
-            report = filt.update(obs.ids, obs.z, R=R)
-        rec.record(t, "update", filt, report)
+        rec.record(t, "update", filt, filt.update(obs.ids, obs.z, R=R))
     return rec.trace(run, filt, pending=pending)
 
 

@@ -32,7 +32,7 @@ from dataclasses import asdict, dataclass, field
 
 import numpy as np
 
-from .models import _wrap_array
+from .models import range_bearing, wrap
 from .validate import as_finite_scalar, as_positive, as_vector
 
 __all__ = ["Observations", "AnalyticMarkerSensor", "CAMERA_OFFSET", "DEFAULT_FOV_HALF_ANGLE",
@@ -162,8 +162,7 @@ def _visible(geo: _Geometry, poses: np.ndarray, fov_half_angle, min_range, max_r
     """:func:`visible_markers` from each of F checked poses (F, 3): flags (F, n)."""
     cam = np.array([_camera_positions(p, camera_offset) for p in poses]).reshape(-1, 2)
     d = geo.positions[None, :, :] - cam[:, None, :]        # camera -> marker
-    dist = np.hypot(d[:, :, 0], d[:, :, 1])
-    bearing_cam = _wrap_array(np.arctan2(d[:, :, 1], d[:, :, 0]) - poses[:, 2:3])
+    dist, bearing_cam = range_bearing(d[:, :, 0], d[:, :, 1], poses[:, 2:3])
     safe = np.where(dist > 0.0, dist, 1.0)
     cos_view = -(geo.normals[None, :, :] * d).sum(axis=2) / safe   # normal . (camera - marker)
     return ((np.abs(bearing_cam) < fov_half_angle) & (dist >= min_range)
@@ -286,13 +285,6 @@ class AnalyticMarkerSensor:
         rho = as_finite_scalar("rho", rho)
         return np.diag([float(self.sigma_range(max(rho, 0.0))) ** 2, self.sigma_bearing ** 2])
 
-    @property
-    def R_always_positive_definite(self) -> bool:
-        """True when every :meth:`R` is positive definite: it is diagonal with variances of at
-        least ``sigma_range0^2`` and ``sigma_bearing^2``, so both sigmas positive suffice (the
-        runners then skip checking each frame's R)."""
-        return self.sigma_range0 > 0.0 and self.sigma_bearing > 0.0
-
     def R_batch(self, rho) -> np.ndarray:
         """:meth:`R` of each range in ``rho`` (shape (k,)), stacked: shape (k, 2, 2)."""
         rho = np.asarray(rho, dtype=float).reshape(-1)
@@ -301,7 +293,8 @@ class AnalyticMarkerSensor:
         out = np.zeros((rho.size, 2, 2))
         # the same operations as R, element by element (x ** 2 is x * x, correctly rounded)
         s = self.sigma_range(np.maximum(rho, 0.0))
-        out[:, 0, 0] = s * s
+        with np.errstate(over="ignore"):        # an absurd range: inf, which the filter refuses
+            out[:, 0, 0] = s * s
         out[:, 1, 1] = self.sigma_bearing ** 2
         return out
 
@@ -373,11 +366,10 @@ class AnalyticMarkerSensor:
         # the readings of every marker in every frame; only the seen ones are kept
         dx = geo.positions[None, :, 0] - P[:, 0:1]
         dy = geo.positions[None, :, 1] - P[:, 1:2]
-        rho_t = np.hypot(dx, dy)
-        beta_t = _wrap_array(np.arctan2(dy, dx) - P[:, 2:3])
+        rho_t, beta_t = range_bearing(dx, dy, P[:, 2:3])
         rho = rho_t + self.range_bias(rho_t) + self.sigma_range(rho_t) * E[:, :, 0]
         rho = np.maximum(rho, 0.0)
-        beta = _wrap_array(beta_t + self.sigma_bearing * E[:, :, 1])
+        beta = wrap(beta_t + self.sigma_bearing * E[:, :, 1])
         world_ids = geo.ids.astype(np.int64)
         fi, mi = np.nonzero(seen)                # frame by frame, markers in world order
         true_ids = world_ids[mi]

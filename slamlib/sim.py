@@ -32,13 +32,15 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, replace
 
+import numba
 import numpy as np
 
-from . import kernels as _kernels
 from .models import (
     KOBUKI_TICKS_PER_REV,
     KOBUKI_WHEEL_BASE,
     KOBUKI_WHEEL_RADIUS,
+    body_speeds,
+    wrap,
     wrap_angle,
 )
 from .runs import CAMERA_HEADER, CameraRows, Run
@@ -49,6 +51,21 @@ from .worlds import World
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
            "encoder_counter", "KobukiSim", "simulate", "arena_loop_waypoints", "loop_waypoints",
            "arena_laps_waypoints", "SCENARIOS", "STUDY_SCENARIOS", "scenario", "kobuki_params_dict"]
+
+
+# --------------------------------------------------------------------------- compiled
+def _compiled(func):
+    """``func`` compiled by numba (the same function, not a copy), its machine code cached
+    beside the source when that folder (or numba's user cache) is writable; otherwise
+    compiled once per process (a read-only install and HOME)."""
+    try:
+        return numba.njit(cache=True)(func)
+    except RuntimeError:                     # numba: "cannot cache function ...: no locator"
+        return numba.njit(func)
+
+
+_wrap = _compiled(wrap)
+_body_speeds = _compiled(body_speeds)
 
 
 # --------------------------------------------------------------------------- pure pieces
@@ -68,6 +85,9 @@ def wheel_commands(v: float, w: float, wheel_base: float = KOBUKI_WHEEL_BASE
     return v - half, v + half
 
 
+_wheel_commands = _compiled(wheel_commands)
+
+
 def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
     """Exact motion at constant ``v`` (m/s) and ``w`` (rad/s) for ``dt`` seconds (chapter 01).
 
@@ -81,7 +101,7 @@ def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
     numpy.ndarray, shape (3,)
         The pose after ``dt``, heading wrapped to [-pi, pi).
     """
-    x, y, th = _kernels.arc(float(pose[0]), float(pose[1]), float(pose[2]), float(v),
+    x, y, th = arc(float(pose[0]), float(pose[1]), float(pose[2]), float(v),
                             float(w), float(dt))
     if not math.isfinite(th):
         raise ValueError(f"angle: expected finite numbers, got {th!r}")
@@ -96,7 +116,155 @@ def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_RE
     modulo ``2**bits``: a 16-bit counter wraps from 65535 to 0 going forwards
     and from 0 to 65535 going backwards.
     """
-    return _kernels.encoder_count(float(rim_angle), float(ticks_per_rev), int(offset), int(bits))
+    return encoder_count(float(rim_angle), float(ticks_per_rev), int(offset), int(bits))
+
+
+# --------------------------------------------------------------------------- the compiled loop
+# The simulator's loop, one encoder period at a time: the controller, the slip, the camera's
+# capture instants, the exact arc and the encoders. Each function is compiled by numba (its
+# Python, with NUMBA_DISABLE_JIT=1); Python's min and max are written out (``min(a, b)`` is ``b``
+# only if ``b < a``) so that ties give the same float as in Python.
+@_compiled
+def _py_min(a: float, b: float) -> float:
+    return b if b < a else a
+
+
+@_compiled
+def _py_max(a: float, b: float) -> float:
+    return b if b > a else a
+
+
+@_compiled
+def arc(x: float, y: float, th: float, v: float, w: float, dt: float):
+    """Exact motion at constant ``v`` and ``w`` for ``dt`` (``slamlib.sim.integrate_arc``).
+
+    An arc of radius ``v/w`` or, when ``|w dt| < 1e-9``, its second-order
+    expansion (a segment at the mid heading); heading wrapped.
+    """
+    dth = w * dt
+    if abs(dth) < 1e-9:
+        c, s = math.cos(th + 0.5 * dth), math.sin(th + 0.5 * dth)
+        return x + v * dt * c, y + v * dt * s, _wrap(th + dth)
+    r = v / w
+    th1 = th + dth
+    return (x + r * (math.sin(th1) - math.sin(th)), y - r * (math.cos(th1) - math.cos(th)),
+            _wrap(th1))
+
+
+@_compiled
+def encoder_count(rim_angle: float, ticks_per_rev: float, offset: int, bits: int) -> int:
+    """The counter after the wheel turned ``rim_angle`` (``slamlib.sim.encoder_counter``):
+    whole ticks (floor) plus ``offset``, modulo ``2**bits``."""
+    ticks = int(math.floor(rim_angle * ticks_per_rev / (2.0 * math.pi)))
+    return (ticks + offset) % (1 << bits)
+
+
+@_compiled
+def waypoint_command(wp, index: int, v: float, w: float, px: float, py: float, th: float,
+                     dt: float, b: float, v_max: float, w_max: float, k_heading: float,
+                     accel: float, alpha: float, tolerance: float, turn_in_place: float):
+    """One call of ``WaypointController.command``: returns ``(index, v, w, V_R, V_L)``.
+
+    Skip the waypoints within ``tolerance``; aim at the next one (``w = k e``
+    clipped to ``w_max``, ``v = v_max cos e``, zero beyond ``turn_in_place``,
+    braking on the final approach); both speeds rate-limited; wheel speeds
+    ``v -/+ w b/2``.
+    """
+    n = wp.shape[0]
+    while index < n:
+        if math.hypot(wp[index, 0] - px, wp[index, 1] - py) > tolerance:
+            break
+        index += 1
+    if index < n:
+        dx, dy = wp[index, 0] - px, wp[index, 1] - py
+        dist = math.hypot(dx, dy)
+        e = _wrap(math.atan2(dy, dx) - th)
+        w_des = _py_max(-w_max, _py_min(w_max, k_heading * e))
+        v_des = 0.0 if abs(e) > turn_in_place else v_max * math.cos(e)
+        if index == n - 1:                 # final approach: brake in time
+            v_des = _py_min(v_des, math.sqrt(2.0 * accel * _py_max(dist - 0.5 * tolerance,
+                                                                    0.0)))
+    else:
+        v_des = w_des = 0.0
+    dv, dw = accel * dt, alpha * dt
+    v += _py_max(-dv, _py_min(dv, v_des - v))
+    w += _py_max(-dw, _py_min(dw, w_des - w))
+    VR, VL = _wheel_commands(v, w, b)
+    return index, v, w, VR, VL
+
+
+@_compiled
+def sim_period(pose, VR: float, VL: float, eR: float, eL: float, k: int, next_frame: int,
+               b: float, dt: float, sigma_wheel: float, encoder_rate: float,
+               camera_rate: float, cap_j, cap_pose):
+    """One encoder period of ``KobukiSim.step``: returns ``(next_frame, n_captured)``.
+
+    The ground speeds are the rim speeds plus the slip ``sigma_wheel * [eR, eL]``;
+    the camera frames ``j`` whose instant ``j / camera_rate`` falls in this
+    period (none without a camera, ``camera_rate = 0``) are captured at the
+    pose on the arc then (into ``cap_j``, ``cap_pose``); ``pose`` moves along
+    the arc of the period.
+    """
+    v, w = _body_speeds(VR + sigma_wheel * eR, VL + sigma_wheel * eL, b)   # ground speeds
+    x0, y0, th0 = pose[0], pose[1], pose[2]
+    n = 0
+    while camera_rate > 0.0:
+        x = next_frame * encoder_rate / camera_rate     # capture time in periods
+        kk = int(math.floor(x + 1e-9))
+        if kk > k:
+            break
+        frac = _py_max(x - k, 0.0) if kk == k else 0.0
+        if frac < 1e-9:
+            px, py, pth = x0, y0, th0
+        else:
+            px, py, pth = arc(x0, y0, th0, v, w, frac * dt)
+        cap_j[n] = next_frame
+        cap_pose[n, 0], cap_pose[n, 1], cap_pose[n, 2] = px, py, pth
+        n += 1
+        next_frame += 1
+    pose[0], pose[1], pose[2] = arc(x0, y0, th0, v, w, dt)
+    return next_frame, n
+
+
+@_compiled
+def drive_waypoints(wp, control, pose, state, angles, slip, n_max: int, b: float, r: float,
+                    dt: float, sigma_wheel: float, encoder_rate: float, camera_rate: float,
+                    ticks_per_rev: float, bits: int, off_R: int, off_L: int,
+                    times, poses, ticks, cap_j, cap_pose):
+    """``simulate``'s loop (command, then one period) while ``state[0] < n_max``, the path is
+    not finished and slip rows remain; returns ``(periods done, frames captured)``.
+
+    ``control = [index, v, w, v_max, w_max, k_heading, accel, alpha, tolerance,
+    turn_in_place]`` (the first three updated), ``state = [k, next_frame]``,
+    ``angles`` the rim angles; each period's time, pose and counters go to
+    ``times``, ``poses``, ``ticks``, its frames to ``cap_j``, ``cap_pose``.
+    """
+    index, v, w = int(control[0]), control[1], control[2]
+    k, next_frame = state[0], state[1]
+    n_wp = wp.shape[0]
+    done = 0
+    ncap = 0
+    while k < n_max and done < slip.shape[0]:
+        if index >= n_wp and v == 0.0 and w == 0.0:
+            break
+        index, v, w, VR, VL = waypoint_command(
+            wp, index, v, w, pose[0], pose[1], pose[2], dt, b, control[3], control[4],
+            control[5], control[6], control[7], control[8], control[9])
+        next_frame, n = sim_period(pose, VR, VL, slip[done, 0], slip[done, 1], k, next_frame,
+                                   b, dt, sigma_wheel, encoder_rate, camera_rate,
+                                   cap_j[ncap:], cap_pose[ncap:])
+        ncap += n
+        angles[0] += VR * dt / r
+        angles[1] += VL * dt / r
+        k += 1
+        times[done] = k / encoder_rate
+        poses[done, 0], poses[done, 1], poses[done, 2] = pose[0], pose[1], pose[2]
+        ticks[done, 0] = encoder_count(angles[0], ticks_per_rev, off_R, bits)
+        ticks[done, 1] = encoder_count(angles[1], ticks_per_rev, off_L, bits)
+        done += 1
+    control[0], control[1], control[2] = index, v, w
+    state[0], state[1] = k, next_frame
+    return done, ncap
 
 
 # --------------------------------------------------------------------------- robot
@@ -224,7 +392,7 @@ class WaypointController:
     def command(self, pose, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
                 ) -> tuple[float, float]:
         """Wheel speed commands ``(V_R, V_L)`` (m/s) for the next ``dt`` seconds."""
-        self.index, self._v, self._w, VR, VL = _kernels.waypoint_command(
+        self.index, self._v, self._w, VR, VL = waypoint_command(
             self.waypoints, self.index, self._v, self._w, float(pose[0]), float(pose[1]),
             float(pose[2]), float(dt), float(wheel_base), *self._gains())
         return VR, VL
@@ -369,7 +537,7 @@ class KobukiSim:
         pose = self.pose.copy()
         cap_j = np.empty(self._max_frames, dtype=np.int64)
         cap_pose = np.empty((self._max_frames, 3))
-        self._next_frame, n = _kernels.sim_period(
+        self._next_frame, n = sim_period(
             pose, float(VR), float(VL), eR, eL, k, self._next_frame, b, dt, params.sigma_wheel,
             params.encoder_rate, self._rate if self.sensor is not None else 0.0, cap_j, cap_pose)
         captured = []
@@ -392,7 +560,7 @@ class KobukiSim:
         """``step(*controller.command(pose, dt))`` until ``n_max`` periods or the path's end.
 
         The same periods, draws and numbers as that loop in Python, bit for bit,
-        run by the compiled :func:`slamlib.kernels.drive_waypoints` 256 periods
+        run by the compiled :func:`drive_waypoints` 256 periods
         (one draw of slip) at a time when nothing needs the frames during the
         run (no camera, or the analytic sensor's deferred reads); else that loop.
         """
@@ -418,7 +586,7 @@ class KobukiSim:
             times, poses, ticks = np.empty(m), np.empty((m, 3)), np.empty((m, 2), dtype=np.int64)
             cap_j = np.empty(m * self._max_frames, dtype=np.int64)
             cap_pose = np.empty((m * self._max_frames, 3))
-            done, ncap = _kernels.drive_waypoints(
+            done, ncap = drive_waypoints(
                 wp, control, pose, state, angles, slip, n_max, params.wheel_base,
                 params.wheel_radius, params.dt, params.sigma_wheel, params.encoder_rate, rate,
                 float(params.ticks_per_rev), int(params.bits), int(off[0]), int(off[1]),

@@ -27,7 +27,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from . import runner as ex
+from . import runner
 from .metrics import chi2_band, pose_error
 from .metrics import nees as _nees
 from .runs import Run
@@ -92,7 +92,7 @@ class NEESStudy:
         return np.mean(self.nees_heading if heading else self.nees, axis=1)
 
 
-def sample_trace(trace: ex.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
+def sample_trace(trace: runner.Trace, t_grid) -> tuple[np.ndarray, np.ndarray]:
     """Pose NEES and heading NEES of ``trace`` at the times ``t_grid``.
 
     At each grid time the state after the last event at or before it is used
@@ -118,7 +118,7 @@ def _run_method(run: Run, method: str, gate, Q=None):
     if method not in _METHODS:
         raise ValueError(f"method: expected one of {_METHODS}, got {method!r}")
     name, options = _RUNNERS[method]
-    return getattr(ex, name)(run, gate=gate, Q=Q, **options)
+    return getattr(runner, name)(run, gate=gate, Q=Q, **options)
 
 
 def _one_seed(job: tuple) -> tuple:
@@ -145,7 +145,7 @@ def _one_seed(job: tuple) -> tuple:
     for m in methods:
         tr = _run_method(run, m, gate, Q)
         a, b = sample_trace(tr, t)
-        out[m] = (a, b, ex.ate(tr.x, tr.truth).position,
+        out[m] = (a, b, runner.ate(tr.x, tr.truth).position,
                   reobservation(tr) if m != "localization" else None)
     return end, out
 
@@ -289,7 +289,7 @@ class Reobservation:
         return bool(np.isfinite(self.t_accepted))
 
 
-def reobservation(trace: ex.Trace, marker_id: int | None = None) -> Reobservation:
+def reobservation(trace: runner.Trace, marker_id: int | None = None) -> Reobservation:
     """Find the loop closure of a SLAM ``trace`` on ``marker_id`` (default: the first mapped).
 
     The absence is measured on the readings the filter received (its update

@@ -7,6 +7,7 @@ import pytest
 from same_record import assert_same_record
 
 from slamlib import association as asc
+from slamlib import ekf
 from slamlib.confirmation import ConfirmedSLAM
 from slamlib.course.association_study import association_errors, make_filter, run_without_ids
 from slamlib.ekf import EKFSLAM, EKFLocalization
@@ -187,7 +188,7 @@ def test_nearest_neighbour_takes_the_closest_pair_first_one_reading_per_landmark
     assert list(asc.nearest_neighbour(np.array([[np.nan, 2.0]]), 5.99)) == [1]
 
 
-def test_pair_covariance_equals_dense_H_P_H_T():
+def test_predicted_readings_covariance_equals_dense_H_P_H_T():
     f = EKFSLAM(np.array([0.3, -0.2, 0.4]), np.diag([0.01, 0.02, 0.003]), Q, R)
     f.update([5, 6, 7], np.array([[2.0, 0.3], [1.5, -0.4], [3.0, 0.1]]))
     for _ in range(5):
@@ -195,8 +196,9 @@ def test_pair_covariance_equals_dense_H_P_H_T():
     f.update([5, 6, 7], np.array([[2.0, 0.31], [1.45, -0.38], [3.02, 0.12]]))
     lms = [7, 5]
     slots = np.array([f.landmark_index(i) for i in lms])
-    h, Hp, Hl = f.reading_model(f.pose, np.array([f.landmark(i) for i in lms]))
-    C = f._predicted_readings_cov(slots, Hp, Hl)
+    h, Hp, Hl = f.jacobians("observation", ids=lms)            # the filter's own hook
+    idx, Hc = ekf.stacked_jacobian(slots, Hp, Hl)
+    _, C = ekf.innovation_covariance(f.P, idx, Hc, 0.0)         # what the association uses
     # dense: H (4 x n) by finite differences of observe over the whole state
     x, P = f.x, f.P
     H = np.zeros((4, x.size))
@@ -249,9 +251,9 @@ def test_bad_association_arguments():
     with pytest.raises(ValueError, match="gate: association='jcbb' needs a gate"):
         EKFSLAM(np.zeros(3), np.eye(3), Q, R, gate=None, association="jcbb")
     f = EKFLocalization(np.zeros(3), np.eye(3), Q, R, MAP, association="nn")
-    f.gate = None
-    with pytest.raises(ValueError, match="needs a gate"):
-        f.update(None, _readings([1]))
+    with pytest.raises(ValueError, match="needs a gate"):     # refused when set (issue 24)
+        f.gate = None
+    assert f.gate == 0.95
 
 
 def test_matched_with_ids():
@@ -385,3 +387,13 @@ def test_wrong_associations_lists_exactly_the_counted_ones_with_their_gates():
     gates: list = []
     tr, tid = run_without_ids(run, make_filter(run, "ids"), max_time=2.0, gates=gates)
     assert len(gates) == len(tid) == len(tr.reports) and all(np.all(g == 0) for g in gates)
+
+
+def test_solve_lower_is_the_inverse_of_a_lower_triangular_matrix():
+    rng = np.random.default_rng(9)
+    for m, k in [(1, 1), (2, 2), (6, 3), (12, 40)]:
+        L = np.tril(rng.normal(size=(m, m))) + m * np.eye(m)
+        B = rng.normal(size=(m, k))
+        X = asc.solve_lower(L, B)
+        np.testing.assert_allclose(L @ X, B, rtol=1e-12, atol=1e-12)
+        assert not np.shares_memory(X, B)

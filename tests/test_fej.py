@@ -7,9 +7,9 @@ import pytest
 
 from slamlib import runner as ex
 from slamlib import sim, studies
-from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM, predict_readings
+from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM
 from slamlib.metrics import chi2_band
-from slamlib.models import motion_model, observe
+from slamlib.models import motion_model, observe, observe_landmarks
 
 Q = np.diag([0.05, 0.05]) ** 2
 R = np.diag([0.03, np.radians(1.0)]) ** 2
@@ -39,17 +39,24 @@ def _corner(A):
     return np.array([A[0, 2], A[1, 2]])
 
 
+def _spy(filt, link: str, out: list) -> None:
+    """Record what the filter's linearisation hook returns for ``link`` (on the instance)."""
+    hook = filt.jacobians
+
+    def spy(name, **kw):
+        got = hook(name, **kw)
+        if name == link:
+            out.append(tuple(np.array(a, copy=True) for a in got))
+        return got
+
+    filt.jacobians = spy
+
+
 def _motion_jacobians_over_a_drive(filt, pose_of):
     """Drive ``filt`` 40 steps with an update every 5th; the motion Jacobian A of every
-    prediction (spied on ``_predict_cov``) and ``pose_of(filt)`` before and after each."""
-    As, poses = [], [pose_of(filt)]
-    orig = filt._predict_cov
-
-    def spy(A, W):
-        As.append(A.copy())
-        orig(A, W)
-
-    filt._predict_cov = spy
+    prediction (spied on the hook) and ``pose_of(filt)`` before and after each."""
+    got, poses = [], [pose_of(filt)]
+    _spy(filt, "motion", got)
     rng = np.random.default_rng(1)
     for k in range(40):
         filt.predict(np.array([0.2, 0.26]), 0.02)
@@ -59,7 +66,7 @@ def _motion_jacobians_over_a_drive(filt, pose_of):
             z = np.array([observe(filt.pose, LANDMARKS[i]) for i in ids]) + \
                 rng.normal(0, 0.05, (3, 2))
             filt.update(ids, z)
-    return As, poses
+    return [A for A, _ in got], poses
 
 
 def _product(As):
@@ -90,21 +97,14 @@ def test_standard_motion_jacobians_do_not_chain_after_updates():
 def test_fej_observation_jacobians_at_first_estimates_by_finite_differences():
     f = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-4, Q, R)
     _drive(f, steps=30)
-    seen = {}
-    base = EKFSLAM._fuse
-
-    def record(self, slots, Hp, Hl, y, R_):
-        seen["slots"], seen["Hp"], seen["Hl"] = slots.copy(), Hp.copy(), Hl.copy()
-        return base(self, slots, Hp, Hl, y, R_)
-
-    EKFSLAM._fuse = record
-    try:
-        f.predict(np.array([0.2, 0.2]), 0.02)
-        pose = f.propagated_pose
-        ids = np.array(sorted(LANDMARKS))
-        f.update(ids, np.array([observe(pose, LANDMARKS[i]) for i in ids]))
-    finally:
-        EKFSLAM._fuse = base
+    got = []
+    _spy(f, "observation", got)
+    f.predict(np.array([0.2, 0.2]), 0.02)
+    pose = f.propagated_pose
+    ids = np.array(sorted(LANDMARKS))
+    rep = f.update(ids, np.array([observe(pose, LANDMARKS[i]) for i in ids]))
+    assert rep.accepted.all() and len(got) == 1
+    seen = {"Hp": got[0][1], "Hl": got[0][2]}
     eps = 1e-6
     for j, mid in enumerate(ids):
         m0 = f.first_estimate(mid)
@@ -115,7 +115,7 @@ def test_fej_observation_jacobians_at_first_estimates_by_finite_differences():
                                  / (2 * eps) for e in np.eye(2)])
         assert np.allclose(seen["Hp"][j], Hp_fd, atol=1e-6)
         assert np.allclose(seen["Hl"][j], Hl_fd, atol=1e-6)
-        _, Hp_now, _ = predict_readings(pose, f.landmark(mid)[None, :])
+        _, Hp_now, _ = observe_landmarks(pose, f.landmark(mid)[None, :])
         assert not np.allclose(seen["Hp"][j], Hp_now[0], atol=1e-6)
 
 
@@ -135,12 +135,13 @@ def test_ideal_jacobians_are_the_truths():
     truth = ex.truth_function(run)
     f = IdealEKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0),
                      truth=truth, landmarks=run.world().landmarks())
-    As = []
-    orig = f._predict_cov
-    f._predict_cov = lambda A, W: (As.append(A.copy()), orig(A, W))
+    got = []
+    _spy(f, "motion", got)
+    As = [A for A, _ in got]
     u, dt = run.controls()
     for k in range(20):
         f.predict(u[k], float(dt[k]))
+        As.append(got[-1][0])
     d = run.truth[20] - run.truth[0]
     prod = np.eye(3)
     for A in As:
@@ -181,7 +182,7 @@ def test_ideal_landmark_initialisation_at_the_truth():
     default.update([7], [z])
     slam.update([7], [z])
     assert np.array_equal(default.x, slam.x) and np.array_equal(default.P, slam.P)
-    with pytest.raises(ValueError, match="landmark_init"):
+    with pytest.raises(ValueError, match="initialisation"):
         IdealEKFSLAM(x0, P0, Qm, Rm, landmark_init="map", **kw)
 
 

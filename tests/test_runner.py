@@ -56,3 +56,57 @@ def test_without_until_or_past_the_end_nothing_is_pending(run):
     assert ex.slam(run, max_time=5.0).pending is None
     tr = ex.slam(run, until=1e6)
     assert tr.pending is None and len(tr.reports) == len(ex.slam(run).reports)
+
+
+def test_a_q_per_step_is_the_textbook_prediction_with_that_steps_q():
+    # a noise density gives each step its own Q (Q_c / dt_k, chapter 10)
+    from slamlib.models import motion_jacobians
+
+    rng = np.random.default_rng(5)
+    f = EKFSLAM(rng.normal(0, 1, 3), np.diag([1e-3, 2e-3, 1e-3]), np.diag([4e-4, 9e-4]),
+                np.diag([0.01, 1e-4]))
+    z = np.column_stack([rng.uniform(0.5, 3.0, 3), rng.uniform(-1, 1, 3)])
+    f.update(np.arange(3), z)
+    u, dt = rng.normal(0.2, 0.1, (29, 2)), rng.uniform(0.001, 0.5, 29)
+    Qc = np.array([[2e-4, 1e-4], [1e-4, 3e-4]])
+    for k in range(29):
+        P, Qk = f.P, Qc / dt[k]
+        A, W = motion_jacobians(f.pose, u[k], float(dt[k]), f.wheel_base)
+        F = np.eye(P.shape[0])
+        F[:3, :3] = A
+        f.predict(u[k], float(dt[k]), Qk)
+        # the textbook formula F P F' + F_w Q_k F_w' with this step's Q, A and W
+        want = F @ P @ F.T
+        want[:3, :3] += W @ Qk @ W.T
+        np.testing.assert_allclose(f.P, want, rtol=1e-12, atol=1e-15)
+    x, P = f.x, f.P
+    with pytest.raises(ValueError, match="Q: expected a symmetric"):
+        f.predict(u[0], 0.1, [[1.0, 0.5], [0.0, 1.0]])
+    np.testing.assert_array_equal(f.x, x)
+    np.testing.assert_array_equal(f.P, P)
+
+
+def test_the_runners_give_each_step_the_runs_own_q(run, monkeypatch):
+    # Run.Q_steps (a real log's Q_c / dt_k) reaches every prediction of run_filter and
+    # dead_reckoning, one prediction at a time; Q given overrides it
+    Qc = np.array([[2e-4, 1e-4], [1e-4, 3e-4]])
+    monkeypatch.setattr(type(run), "Q_steps", lambda self, dt: Qc[None] / dt[:, None, None])
+    tr = ex.slam(run, max_time=12.0)
+    sensor = run.sensor()
+    f = EKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), sensor.R(2.0),
+                wheel_base=run.wheel_base, gate=0.95)
+    d = ex.make_filter(ex.EKFLocalization, run, R=ex.default_R(run, needed=False), landmarks={})
+    for ev in run.events():
+        if ev.t > 12.0:
+            break
+        if ev.kind == "predict":
+            f.predict(ev.u, ev.dt, Qc / ev.dt)
+            d.predict(ev.u, ev.dt, Qc / ev.dt)
+        elif len(ev.obs):
+            f.update(ev.obs.ids, ev.obs.z, R=np.stack([sensor.R(r) for r in ev.obs.z[:, 0]]))
+    np.testing.assert_array_equal(tr.filter.x, f.x)
+    np.testing.assert_array_equal(tr.filter.P, f.P)
+    dr = ex.dead_reckoning(run, max_time=12.0)
+    np.testing.assert_array_equal(dr.filter.P, d.P)
+    same_Q = ex.slam(run, max_time=12.0, Q=run.Q())
+    assert not np.array_equal(same_Q.filter.P, f.P)

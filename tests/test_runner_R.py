@@ -69,14 +69,11 @@ def test_dead_reckoning_and_runs_without_readings_need_nodefault_R(run):
     assert ex.slam(quiet).filter.n_landmarks == 0
 
 
-def test_the_runner_checks_R_unless_the_sensor_guarantees_it(run):
-    """A sensor with both sigmas positive gives only positive-definite R (no per-frame check
-    needed); one whose range sigma can be zero is checked, and a zero variance is refused."""
+def test_the_filter_checks_the_R_the_runner_gives(run):
+    """A sensor whose range sigma can be zero gives a zero variance: the update refuses it."""
     from slamlib.sensors import AnalyticMarkerSensor
 
-    assert AnalyticMarkerSensor().R_always_positive_definite
     flat = AnalyticMarkerSensor(sigma_range0=0.0, sigma_range_per_m=0.0)
-    assert not flat.R_always_positive_definite
     r = sim.scenario("arena_loop", seed=2, sensor=flat)
     filt = ex.make_filter(ex.EKFSLAM, r, R=np.diag([1e-4, 1e-4]))     # a valid default R
     with pytest.raises(ValueError, match=r"R\[0\]"):              # the frame's own R: zero

@@ -4,8 +4,8 @@ tests/same_record.py), and the per-run quantities are what they claim to be."""
 
 import numpy as np
 import pytest
-
 from same_record import assert_same_record
+
 from slamlib.course import studies_ch07_08 as S
 
 

@@ -26,7 +26,6 @@ Studies and chapter helpers:
                          with it
 - ``graph_study``        chapter 11's study of EKF against batch and iSAM2 (``data/studies``)
 - ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
-- ``student_filter``     the student's own EKF SLAM (their exercise answers) over a recorded run
 - ``trace_readings``     a trace's readings end to end in flat arrays, by status, and their counts
 - ``tables``             aligned tables of results (headers, rows, one format per column)
 - ``inline_figures``     a notebook's figures as pixel-doubled PNGs (called on import, below)

@@ -27,7 +27,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import runner as ex
+from .. import runner
 from ..confirmation import ConfirmedSLAM
 from ..ekf import EKFSLAM
 from ..metrics import ate
@@ -71,9 +71,9 @@ def make_filter(run: Run, association: str, *, confirmed: bool = True, gate: flo
                 n_confirm: int = 2):
     """The chapter's filter for ``run``: ConfirmedSLAM (or plain EKFSLAM) with that association."""
     if not confirmed:
-        return ex.make_filter(EKFSLAM, run, gate=gate, association=association)
-    return ex.make_filter(ConfirmedSLAM, run, gate=gate, association=association,
-                          n_confirm=n_confirm)
+        return runner.make_filter(EKFSLAM, run, gate=gate, association=association)
+    return runner.make_filter(ConfirmedSLAM, run, gate=gate, association=association,
+                              n_confirm=n_confirm)
 
 
 def run_without_ids(run: Run, filt, *, max_time: float | None = None,
@@ -92,7 +92,7 @@ def run_without_ids(run: Run, filt, *, max_time: float | None = None,
     """
     sensor = run.sensor()
     anonymous = filt.association != "ids"
-    rec = ex.TraceRecorder(run.enc_t[0], filt)
+    rec = runner.TraceRecorder(run.enc_t[0], filt)
     true_ids = []
     for ev in run.events():
         if max_time is not None and ev.t > max_time:
@@ -104,7 +104,7 @@ def run_without_ids(run: Run, filt, *, max_time: float | None = None,
             obs = ev.obs
             if len(obs) == 0:
                 continue
-            R = ex.reading_covariances(sensor, obs.z)
+            R = runner.reading_covariances(sensor, obs.z)
             report = filt.update(None if anonymous else obs.ids, obs.z, R=R)
             true_ids.append(obs.true_ids.copy())
             if gates is not None:

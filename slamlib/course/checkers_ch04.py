@@ -154,19 +154,23 @@ def heading_sigma_ratio(x, P, z, R, drop: bool) -> float:
     """Augment the state with the reading ``z``, optionally drop the new landmark's
     cross-covariances, update with ``z`` again from the same pose: the robot's heading sigma
     after the update over before it (chapter 04, section 5)."""
-    from .. import ekf_textbook as tb
-    from ..models import observation_jacobians, observe
+    from .. import ekf
+    from ..models import inverse_observation_jacobians, inverse_observe, observe_landmarks
 
-    xa, Pa = tb.augment(x, P, z, R)
     n = x.size
+    xa, Pa = np.zeros(n + 2), np.zeros((n + 2, n + 2))
+    xa[:n], Pa[:n, :n] = x, P
+    J1, J2 = inverse_observation_jacobians(x[:3], z)
+    ekf.augment(xa, Pa, n, inverse_observe(x[:3], z), J1, J2, R)     # the filter's augment
     if drop:
         Pa[n:, :n] = 0.0
         Pa[:n, n:] = 0.0
-    Hp, Hl = observation_jacobians(xa[:3], xa[n:])
-    H = tb.stacked_jacobian(n + 2, [n], [Hp], [Hl])
-    h = observe(xa[:3], xa[n:])[None, :]
-    _, P1 = tb.joint_update(xa, Pa, h, h, H, R)
-    return float(np.sqrt(P1[2, 2] / Pa[2, 2]))
+    before = Pa[2, 2]
+    h, Hp, Hl = observe_landmarks(xa[:3], xa[None, n:])
+    idx, H = ekf.stacked_jacobian(np.array([n]), Hp, Hl)
+    PHt, S = ekf.innovation_covariance(Pa, idx, H, R)
+    ekf.joint_update(xa, Pa, PHt, S, ekf.innovation(h, h).reshape(-1))  # the filter's update
+    return float(np.sqrt(Pa[2, 2] / before))
 
 
 def measure_second_reading(n_runs: int = 100, seed: int = 12):

@@ -22,7 +22,7 @@ from __future__ import annotations
 
 import numpy as np
 
-from ..ekf import predict_readings
+from ..models import observe_landmarks
 from .harness import attempt, name_of, printer
 
 __all__ = ["check_joint_distance", "joint_distance_cases", "check_jcbb", "jcbb_cases",
@@ -53,7 +53,7 @@ def joint_distance_cases(n: int = 8, seed: int = 9):
         Ppose = np.diag([0.15, 0.15, 0.05]) ** 2
         P = P + J @ Ppose @ J.T
         which = rng.permutation(N)[:m]
-        _, Hp, Hl = predict_readings(pose, L[which])
+        _, Hp, Hl = observe_landmarks(pose, L[which])
         H = np.zeros((2 * m, nstate))
         for q, j in enumerate(which):
             H[2 * q:2 * q + 2, :3] = Hp[q]
@@ -160,7 +160,7 @@ def jcbb_cases(n: int = 12, seed: int = 11):
     P0 = np.diag([0.2 ** 2, 0.2 ** 2, 1e-8])
     R0 = np.diag([0.02 ** 2, np.radians(1.0) ** 2])
     lm = np.array([[2.0, 0.0], [2.0, -0.15], [2.0, 2.0]])
-    h, Hp, _ = predict_readings(np.zeros(3), lm)
+    h, Hp, _ = observe_landmarks(np.zeros(3), lm)
     z = np.array([observe(np.array([0.0, 0.15, 0.0]), lm[0]),
                   observe(np.array([0.0, 0.15, 0.0]), lm[2])])
     cases = [_frame(z, h, Hp, P0, np.array([R0, R0]))]
@@ -177,7 +177,7 @@ def jcbb_cases(n: int = 12, seed: int = 11):
         seen = rng.integers(0, N, k)                  # several readings may see one landmark
         z = np.array([observe(truth, lm[j]) + rng.normal(0.0, [0.03, np.radians(1.5)])
                       for j in seen])
-        h, Hp, _ = predict_readings(pose, lm)
+        h, Hp, _ = observe_landmarks(pose, lm)
         frame = _frame(z, h, Hp, P, R)
         d2 = frame[0]
         if np.sum(d2 < 5.99) >= 2:                    # at least two candidate pairs

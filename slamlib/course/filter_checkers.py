@@ -1,9 +1,11 @@
 """Checkers for the exercises in which the student writes the filter itself.
 
 Each checker runs the student's function on seeded test states, compares the
-answer with :mod:`slamlib.ekf_textbook` (whose equations are tested against
-the fast and the dense filters) and, when it is wrong, tries the known
-mistakes one by one and names the one that reproduces the answer. They share
+answer with what the library's own steps give (:func:`slamlib.ekf.predict`,
+:func:`~slamlib.ekf.stacked_jacobian`, :func:`~slamlib.ekf.joint_update`,
+:func:`~slamlib.ekf.augment`: the code the filters run, in the textbook's
+signatures below) and, when it is wrong, tries the known mistakes one by one
+and names the one that reproduces the answer. They share
 the harness of :mod:`slamlib.course.harness` (``"not written yet"`` for a stub, an
 exception reported rather than raised, a verdict printed, True or False
 returned).
@@ -26,10 +28,11 @@ from collections.abc import Callable
 
 import numpy as np
 
-from .. import ekf_textbook as tb
-from ..metrics import chi2_band
+from .. import ekf
+from ..metrics import chi2_band, nees, pose_error
 from ..models import (
     inverse_observation_jacobians,
+    inverse_observe,
     observation_jacobians,
     observe,
     wrap_angle,
@@ -39,6 +42,44 @@ from .harness import attempt, call, name_of, not_ready, printer
 
 __all__ = ["check_predict_covariance", "check_stacked_jacobian", "check_joint_update",
            "check_augment", "check_trace_nees", "check_consistency_verdict"]
+
+
+# --------------------------------------------------------------------------- the expected answers
+# The library's steps (slamlib.ekf) in the exercises' signatures: new arrays, the full H and R.
+def _predict_covariance(P, A, W, Q) -> np.ndarray:
+    """``P`` after :func:`slamlib.ekf.predict` with the Jacobians ``A``, ``W`` (a copy)."""
+    P = np.array(P, dtype=float)
+    ekf.predict(np.zeros(P.shape[0]), P, np.zeros(2), 0.0, 1.0, Q, A, W)
+    return P
+
+
+def _stacked_jacobian(n, slots, Hp, Hl) -> np.ndarray:
+    """The full H (2m x n) from :func:`slamlib.ekf.stacked_jacobian`'s columns ``idx``."""
+    slots, Hl = np.asarray(slots), np.asarray(Hl, dtype=float)
+    known = slots >= 0                             # a known map's reading: no landmark columns
+    idx, Hc = ekf.stacked_jacobian(np.where(known, slots, 0), np.asarray(Hp, dtype=float),
+                                   np.where(known[:, None, None], Hl, 0.0))
+    H = np.zeros((2 * slots.size, n))
+    np.add.at(H.T, idx, Hc.T)
+    return H
+
+
+def _joint_update(x, P, z, h, H, R) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, P)`` after :func:`slamlib.ekf.joint_update` with the full H and R (copies)."""
+    x, P = np.array(x, dtype=float), np.array(P, dtype=float)
+    PHt, S = ekf.innovation_covariance(P, np.arange(x.size), H, R)
+    ekf.joint_update(x, P, PHt, S, ekf.innovation(z, h).reshape(-1))
+    return x, P
+
+
+def _augment(x, P, z, R) -> tuple[np.ndarray, np.ndarray]:
+    """``(x, P)`` with the landmark read as ``z`` appended by :func:`slamlib.ekf.augment`."""
+    n = x.size
+    xa, Pa = np.zeros(n + 2), np.zeros((n + 2, n + 2))
+    xa[:n], Pa[:n, :n] = x, P
+    ekf.augment(xa, Pa, n, inverse_observe(x[:3], z), *inverse_observation_jacobians(x[:3], z),
+                R)
+    return xa, Pa
 
 
 # --------------------------------------------------------------------------- the shared parts
@@ -160,21 +201,21 @@ def _prediction_mistakes(fn, P, A, W, Q, want):
         "uncertainty grow":
             lambda: with_blocks(rr=A @ P[:3, :3] @ A.T),
         "A is transposed: P_rr <- A P_rr A^T (A on the left) and P_rm <- A P_rm":
-            lambda: tb.predict_covariance(P, A.T, W, Q),
+            lambda: _predict_covariance(P, A.T, W, Q),
         "only the robot block is predicted: the strip must also become A P_rm":
             lambda: with_blocks(rm=P[:3, 3:], mr=P[3:, :3]),
     }
     for k, v in _student_globals(fn, ("R",)).items():
         mistakes[f"that is the notebook's {k} in place of the argument Q: the prediction "
                  "adds the wheel-speed noise W Q W^T; use the function's argument"] = (
-            lambda v=v: tb.predict_covariance(P, A, W, v))
+            lambda v=v: _predict_covariance(P, A, W, v))
     return mistakes
 
 
 def check_predict_covariance(fn, n_cases: int = 6, seed: int = 11, verbose: bool = True) -> bool:
     """Check a student's ``fn(P, A, W, Q) -> P_new``, the prediction on the blocks (chapter 04).
 
-    Expected (:func:`slamlib.ekf_textbook.predict_covariance`)::
+    Expected (:func:`slamlib.ekf.predict`)::
 
         P_rr <- A P_rr A^T + W Q W^T,   P_rm <- A P_rm,   P_mr <- P_rm^T,   P_mm unchanged
 
@@ -203,7 +244,7 @@ def check_predict_covariance(fn, n_cases: int = 6, seed: int = 11, verbose: bool
             say(f"{name}: {problem} (the state has {n_lm} landmarks: P is {P.shape[0]} x "
                 f"{P.shape[0]}, and so is the predicted P).")
             return False
-        want = tb.predict_covariance(P, A, W, Q)
+        want = _predict_covariance(P, A, W, Q)
         if _close(got, want):
             continue
         say(f"{name}: not right yet (test case {i + 1} of {n_cases}, {n_lm} landmarks): wrong in "
@@ -232,16 +273,16 @@ def _stacked_mistakes(n, slots, Hp, Hl, m):
     mistakes = {
         "the landmark block is transposed: its columns are d/dx_F and d/dy_F, as they come "
         "from the Jacobian":
-            lambda: tb.stacked_jacobian(n, slots, Hp, Hl.transpose(0, 2, 1)),
+            lambda: _stacked_jacobian(n, slots, Hp, Hl.transpose(0, 2, 1)),
         "the landmark columns are one landmark off: the slot is already the index of x_F "
         "in the state (3 + 2j for the j-th landmark), use columns slot and slot + 1":
-            lambda: tb.stacked_jacobian(n, [s + 2 if s >= 0 else s for s in slots], Hp, Hl),
+            lambda: _stacked_jacobian(n, [s + 2 if s >= 0 else s for s in slots], Hp, Hl),
         "the landmark columns are missing: a reading also depends on its landmark's "
         "position (H_landmark in columns slot, slot + 1)":
-            lambda: tb.stacked_jacobian(n, [-1] * m, Hp, Hl),
+            lambda: _stacked_jacobian(n, [-1] * m, Hp, Hl),
         "the pose block is missing: every reading depends on the robot's pose "
         "(H_pose in columns 0-2)":
-            lambda: tb.stacked_jacobian(n, slots, 0 * Hp, Hl),
+            lambda: _stacked_jacobian(n, slots, 0 * Hp, Hl),
     }
     return mistakes
 
@@ -251,7 +292,7 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
 
     ``H`` is 2m x n: reading j's rows ``2j, 2j+1`` hold ``H_pose[j]`` in columns
     0-2 and ``H_landmark[j]`` in columns ``slots[j], slots[j]+1``, zeros
-    elsewhere (:func:`slamlib.ekf_textbook.stacked_jacobian`; a slot of -1, a
+    elsewhere (:func:`slamlib.ekf.stacked_jacobian`; a slot of -1, a
     known map's landmark, has no landmark columns). Named mistakes: H
     transposed (n x 2m), the landmark block transposed, the landmark block one
     landmark off (``3 + 2 slot``), the landmark columns left out.
@@ -273,7 +314,7 @@ def check_stacked_jacobian(fn, n_cases: int = 6, seed: int = 12, verbose: bool =
         out = attempt(fn, n, list(slots), Hp.copy(), Hl.copy(), say=say, what="H")
         if out is None:
             return False
-        want = tb.stacked_jacobian(n, slots, Hp, Hl)
+        want = _stacked_jacobian(n, slots, Hp, Hl)
         a = np.asarray(out, dtype=float) if isinstance(out, np.ndarray) else None
         if a is not None and a.shape == (n, 2 * m) and _close(a.T, want):
             say(f"{name}: your H is transposed: it is {n} x {2 * m}, but H has one ROW per "
@@ -312,14 +353,14 @@ def _update_cases(rng, n_cases: int):
             x[5:7] = x[:2] + rng.uniform(1.0, 3.0) * np.array([np.cos(back), np.sin(back)])
         h = np.array([observe(x[:3], x[s:s + 2]) for s in slots])
         Hs = [observation_jacobians(x[:3], x[s:s + 2]) for s in slots]
-        H = tb.stacked_jacobian(x.size, slots, [a for a, _ in Hs], [b for _, b in Hs])
+        H = _stacked_jacobian(x.size, slots, [a for a, _ in Hs], [b for _, b in Hs])
         noise = rng.normal(0.0, [0.05, 0.03], (len(slots), 2))
         if i % 2:
             noise[slots.index(5), 1] = 0.03               # pushes the bearing across +pi
         z = h + noise
         z[:, 1] = wrap_angle(z[:, 1])
-        Rb = tb.block_diagonal([np.diag([0.05 ** 2, 0.03 ** 2]) * (1 + j)
-                                for j in range(len(slots))])
+        Rb = ekf.block_diagonal(np.array([np.diag([0.05 ** 2, 0.03 ** 2]) * (1 + j)
+                                          for j in range(len(slots))]))
         yield x, P, z, h, H, Rb
 
 
@@ -347,7 +388,7 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
         if y_wrap == "first":
             y[1] = wrap_angle(y[1])
         elif y_wrap:
-            y = tb.innovation(z, h)
+            y = ekf.innovation(z, h).reshape(-1)
         HPHt = H @ P @ H.T
         S = HPHt + R_use
         K = (P @ H.T @ np.linalg.inv(S) if gain is None
@@ -396,7 +437,7 @@ def _update_mistakes(fn, x, P, z, h, H, Rb, wx, wP, n, m):
             hint = why + ("" if label is None else _OPTIMAL_ONLY.format(form=label))
             mistakes[hint] = lambda gain=gain, form=form: variant(gain=gain, form=form)
     for k, v in _student_globals(fn, ("Q",)).items():
-        Rq = tb.block_diagonal([v] * m)
+        Rq = ekf.block_diagonal(np.array([v] * m))
         mistakes[f"that is the notebook's {k} (the wheel-speed noise) in place of the "
                  "argument R (the readings' noise): use the function's R"] = (
             lambda Rq=Rq: variant(R_use=Rq))
@@ -410,7 +451,7 @@ def check_joint_update(fn, n_cases: int = 6, seed: int = 13, verbose: bool = Tru
     """Check a student's ``fn(x, P, z, z_pred, H, R) -> (x_new, P_new)`` (chapters 03, 05).
 
     ``z, z_pred`` (m, 2) readings and predictions, ``H`` (2m x n) stacked, ``R``
-    (2m x 2m) block-diagonal. Expected (:func:`slamlib.ekf_textbook.joint_update`):
+    (2m x 2m) block-diagonal. Expected (:func:`slamlib.ekf.joint_update`):
     ``y`` with wrapped bearings, ``S = H P H^T + R``, ``K = P H^T S^-1``,
     ``x + K y`` with the heading wrapped, and ``P`` by the Joseph form (or the
     short form, or ``P - K S K^T``: the three agree at this gain), returned
@@ -441,7 +482,7 @@ def check_joint_update(fn, n_cases: int = 6, seed: int = 13, verbose: bool = Tru
             say(f"{name}: {problem} (the state has {n} entries).")
             return False
         gx, gP = pair
-        wx, wP = tb.joint_update(x, P, z, h, H, Rb)
+        wx, wP = _joint_update(x, P, z, h, H, Rb)
         m = z.shape[0]
         where = (f"test case {i + 1} of {n_cases}: n = {n}, {m} reading(s)"
                  + (", one bearing across the +-pi seam" if i % 2 else ""))
@@ -528,7 +569,7 @@ def _augment_mistakes(fn, x, P, z, R, wx, wP, n):
     for k, v in _student_globals(fn, ("Q",)).items():
         mistakes[f"that is the notebook's {k} (the wheel-speed noise) in place of the "
                  "argument R (the reading's noise): use the function's R"] = (
-            lambda v=v: tb.augment(x, P, z, v))
+            lambda v=v: _augment(x, P, z, v))
 
     def with_jacobians(J1_, J2_):
         PLx = J1_ @ P[:3, :]
@@ -557,7 +598,7 @@ def _augment_mistakes(fn, x, P, z, R, wx, wP, n):
 def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) -> bool:
     """Check a student's ``fn(x, P, z, R) -> (x_new, P_new)``: a new landmark (chapter 04).
 
-    Expected (:func:`slamlib.ekf_textbook.augment`): ``m = g(x_B, z)`` appended,
+    Expected (:func:`slamlib.ekf.augment`): ``m = g(x_B, z)`` appended,
     the old ``P`` untouched, ``P_Lx = J1 P_r,:`` (with the robot AND every old
     landmark) and ``P_LL = J1 P_rr J1^T + J2 R J2^T``. Named mistakes: the
     cross-covariances forgotten, kept with the robot only, ``J1 P_rr J1^T``
@@ -583,7 +624,7 @@ def check_augment(fn, n_cases: int = 6, seed: int = 14, verbose: bool = True) ->
             say(f"{name}: {problem} (the state has {n} entries and gets 2 more).")
             return False
         gx, gP = pair
-        wx, wP = tb.augment(x, P, z, R)
+        wx, wP = _augment(x, P, z, R)
         if _close(gx, wx) and _close(gP, wP):
             continue
         say(f"{name}: not right yet (test case {i + 1} of {n_cases}: {n_lm} landmarks, "
@@ -617,7 +658,7 @@ def check_trace_nees(fn, seed: int = 15, verbose: bool = True) -> bool:
 
     ``x_est, x_true`` (T, 3), ``P`` (T, 3, 3); expected the (T,) values
     ``e^T P^-1 e`` with ``e = x_est - x_true``, its heading wrapped
-    (:func:`slamlib.ekf_textbook.nees`). The test trace has headings on both
+    (:func:`slamlib.metrics.nees`). The test trace has headings on both
     sides of the +-pi seam. Named mistakes: heading not wrapped, ``e^T P e``,
     the square root (a Mahalanobis distance), divided by the 3 degrees of
     freedom, the position only, the mean over the trace instead of one value
@@ -638,7 +679,7 @@ def check_trace_nees(fn, seed: int = 15, verbose: bool = True) -> bool:
     out = attempt(fn, est.copy(), truth.copy(), P.copy(), say=say, what="the NEES")
     if out is None:
         return False
-    want = tb.nees(est, truth, P)
+    want = nees(pose_error(est, truth), P)
     a = np.asarray(out, dtype=float) if not isinstance(out, (tuple, list)) else None
     if a is not None and a.size == 1:
         say(f"{name}: expected one NEES per step, shape ({T},), got one number "

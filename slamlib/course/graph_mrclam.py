@@ -52,8 +52,7 @@ from pathlib import Path
 import gtsam
 import numpy as np
 
-from .. import graph
-from .. import runner as ex
+from .. import graph, runner
 from ..datasets import identify, mrclam
 from ..metrics import chi2_quantile, nees, pose_error
 from ..models import observe, wrap_angle
@@ -117,8 +116,8 @@ def robot_traces(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None,
     if {"isam2", "isam2_online"} & set(estimates):
         i = graph.smooth(log, "isam2", max_steps=MAX_STEPS)
         out["isam2"] = i
-        out["isam2_online"] = ex.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P,
-                                       truth=i.truth, filter=i.filter)
+        out["isam2_online"] = runner.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P,
+                                           truth=i.truth, filter=i.filter)
     if "batch" in estimates:
         out["batch"] = graph.smooth(log, "batch", max_steps=MAX_STEPS)
     for k in ("huber", "cauchy"):
@@ -128,7 +127,7 @@ def robot_traces(robot: int, folder=mrclam.EXCERPT_DIR, raw: dict | None = None,
     return {k: out[k] for k in estimates}, log
 
 
-def node_samples(trace: ex.Trace, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
+def node_samples(trace: runner.Trace, t) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The estimate, its covariance and the truth at the times ``t``.
 
     The state after the last event at or before each time (for a filter at a
@@ -176,7 +175,7 @@ def figures(traces: dict, log: mrclam.Log, outliers: np.ndarray | None = None) -
         row = {"ate_xy": _r(np.sqrt(np.mean(e[:, 0] ** 2 + e[:, 1] ** 2))),
                "final_xy_error": _r(np.hypot(*e[-1, :2])),
                "mean_nees": _r(np.mean(nees(e, P))),
-               "map_rmse": _r(ex.map_error(tr.filter, world)[0])}
+               "map_rmse": _r(runner.map_error(tr.filter, world)[0])}
         row["profile"] = _profile(tr, t)
         if tr.reports:
             row["fused_beyond_gate"] = _fused_beyond_gate(tr, t[0])
@@ -197,7 +196,7 @@ def figures(traces: dict, log: mrclam.Log, outliers: np.ndarray | None = None) -
     return out
 
 
-def _profile(trace: ex.Trace, t: np.ndarray) -> dict:
+def _profile(trace: runner.Trace, t: np.ndarray) -> dict:
     """NEES, heading error and heading sigma (degrees) every PROFILE_STEP s from t[0]."""
     at = t[0] + np.arange(0.0, t[-1] - t[0] + 1e-9, PROFILE_STEP)
     x, P, truth = node_samples(trace, at)
@@ -207,7 +206,7 @@ def _profile(trace: ex.Trace, t: np.ndarray) -> dict:
             "heading_sigma_deg": [_r(v) for v in np.degrees(np.sqrt(P[:, 2, 2]))]}
 
 
-def _fused_beyond_gate(trace: ex.Trace, t0: float, first: int = 5) -> dict:
+def _fused_beyond_gate(trace: runner.Trace, t0: float, first: int = 5) -> dict:
     """The readings a filter fused (accepted, not new) beyond the 0.95 gate's chi2_2 bound:
     how many, and the first ``first`` of them as ``[t (s from t0), landmark, d2]``."""
     bound = float(chi2_quantile(0.95, 2))
@@ -234,8 +233,8 @@ def _cost_split(g: gtsam.NonlinearFactorGraph, values: gtsam.Values
     return float(np.sum(odo)), rb, float(np.median(odo)) if odo else 0.0
 
 
-def solver_check(batch: graph.GraphTrace, log: mrclam.Log, online: ex.Trace | None = None
-                 ) -> dict:
+def solver_check(batch: graph.GraphTrace, log: mrclam.Log,
+                 online: runner.Trace | None = None) -> dict:
     """Is the batch solution the optimum of its graph, and how does Vicon's trajectory fit it?
 
     Levenberg-Marquardt is restarted from Vicon (every pose; the landmarks at Vicon's

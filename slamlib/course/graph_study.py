@@ -37,8 +37,7 @@ from pathlib import Path
 
 import numpy as np
 
-from .. import graph
-from .. import runner as ex
+from .. import graph, runner
 from ..metrics import SeedSpread, chi2_band, nees, pose_error, seed_spread
 from ..sim import scenario
 from ..studies import map_jobs, sample_trace
@@ -83,7 +82,7 @@ def _map_figures(landmarks: dict, cov_of, world) -> tuple[float, float]:
     return float(np.sqrt(np.mean(err))), float(np.mean(nn))
 
 
-def _figures(tr: ex.Trace, landmarks: dict, cov_of, world, curve: bool = True) -> dict:
+def _figures(tr: runner.Trace, landmarks: dict, cov_of, world, curve: bool = True) -> dict:
     e = pose_error(tr.x, tr.truth)
     grid_nees, _ = sample_trace(tr, GRID)
     rmse, mnees = _map_figures(landmarks, cov_of, world)
@@ -103,11 +102,11 @@ def run_seed(case: str, seed: int) -> dict:
         raise ValueError(f"case: expected one of {sorted(CASES)}, got {case!r}")
     run = scenario(SCENARIO, seed=int(seed), sigma_wheel=CASES[case])
     world = run.world()
-    ekf = ex.slam(run)
-    ungated = ex.slam(run, gate=None)
+    ekf = runner.slam(run)
+    ungated = runner.slam(run, gate=None)
     b = graph.smooth(run, "batch")
     i = graph.smooth(run, "isam2")
-    online = ex.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P, truth=i.truth)
+    online = runner.Trace(t=i.t, kind=i.kind, x=i.online_x, P=i.online_P, truth=i.truth)
     out = {"seed": int(seed),
            "ekf": _figures(ekf, ekf.filter.landmarks, ekf.filter.landmark_cov, world),
            "ekf_ungated": _figures(ungated, ungated.filter.landmarks,

@@ -24,7 +24,7 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from .. import runner as ex
+from .. import runner
 from ..metrics import SeedSpread, chi2_band, chi2_quantile, seed_spread
 from ..runs import Run
 from ..studies import NEESStudy, map_jobs, monte_carlo
@@ -102,7 +102,7 @@ def density_sweep(counts: Sequence[int] = (4, 8, 16, 32), seeds: Iterable[int] =
 def _density_row(job: tuple) -> DensityRow:
     n, s, extent, sigma_wheel, gate = job
     world, run = random_loop_run(n, s, extent=extent, sigma_wheel=sigma_wheel)
-    tr = ex.slam(run, gate=gate)
+    tr = runner.slam(run, gate=gate)
     m = tr.metrics(world)
     return DensityRow(n, s, m["ate_xy"], m["final_xy_error"], m.get("map_rmse", float("nan")),
                       int(m["landmarks"]), m["mean_nees"], tuple(landmark_placement(tr, world)))
@@ -120,7 +120,7 @@ class LandmarkPlacement:
     error_final: float
 
 
-def landmark_placement(trace: ex.Trace, world) -> list[LandmarkPlacement]:
+def landmark_placement(trace: runner.Trace, world) -> list[LandmarkPlacement]:
     """For every landmark of a SLAM ``trace``: the robot's position and heading error when
     the landmark was added, the landmark's error then, and its error at the end.
 
@@ -275,41 +275,41 @@ def observability(filter_cls, run: Run, t_end: float = 20.0, options: dict | Non
     landmarks that were fused at least once are kept (a landmark seen only when
     it was added constrains nothing).
     """
-    filt = ex.make_filter(filter_cls, run, Q=kwargs.get("Q"), gate=kwargs.get("gate", 0.95),
-                          **(options or {}))
+    filt = runner.make_filter(filter_cls, run, Q=kwargs.get("Q"), gate=kwargs.get("gate", 0.95),
+                              **(options or {}))
     phi = [np.eye(3)]
     rows = []                                   # (Phi so far, slots, Hp, Hl)
-    predict_cov, fuse = filt._predict_cov, filt._fuse
-    jac = getattr(filt, "_linearisation_jacobians", None)
-
-    def spy_predict(A, W):
-        phi.append(A @ phi[-1])
-        predict_cov(A, W)
-
-    def spy_fuse(slots, Hp, Hl, y, R):
-        Hp_u, Hl_u = jac(slots, Hp, Hl) if jac is not None else (Hp, Hl)
-        rows.append((phi[-1].copy(), slots.copy(), Hp_u.copy(), Hl_u.copy()))
-        return fuse(slots, Hp, Hl, y, R)
-
     first: dict[int, np.ndarray] = {}          # slot -> where the landmark was put
     init: dict[int, np.ndarray] = {}           # slot -> J1 Phi(k_0, 0) of its initialisation
-    made = []
-    add, initial = filt._add_landmark, filt._initial_landmark
+    last: dict = {}
+    jacobians, update = filt.jacobians, filt.update
 
-    def spy_initial(marker_id, z):
-        m, J1, J2 = initial(marker_id, z)
-        made.append(J1 @ phi[-1])
-        return m, J1, J2
+    def spy_jacobians(link, **kw):              # the filter's one linearisation hook
+        out = jacobians(link, **kw)
+        if link == "motion":
+            phi.append(out[0] @ phi[-1])
+        elif link == "observation":
+            last["H"] = out[1:]                 # the gated readings' Jacobians, in order
+        elif link == "initialisation":          # each new landmark's J1 Phi(k_0, 0)
+            last["init"] = {int(i): J1 @ phi[-1] for i, J1 in zip(kw["ids"], out[1])}
+        return out
 
-    def spy_add(marker_id, z, R):
-        add(marker_id, z, R)
-        slot = filt.landmark_index(marker_id)
-        first[slot] = filt._x[slot:slot + 2].copy()
-        init[slot] = made.pop()
+    def spy_update(ids, z, R=None):
+        rep = update(ids, z, R)
+        gated = [i for i, s in enumerate(rep.status)
+                 if s in ("accepted", "rejected", "degenerate")]
+        acc = [q for q, i in enumerate(gated) if rep.accepted[i]]
+        if acc:
+            slots = np.array([filt.landmark_index(int(rep.ids[gated[q]])) for q in acc])
+            rows.append((phi[-1].copy(), slots, last["H"][0][acc], last["H"][1][acc]))
+        for i in np.flatnonzero(rep.new):
+            mid = int(rep.ids[i])
+            first[filt.landmark_index(mid)] = filt.landmark(mid)
+            init[filt.landmark_index(mid)] = last["init"][mid]
+        return rep
 
-    filt._predict_cov, filt._fuse, filt._add_landmark = spy_predict, spy_fuse, spy_add
-    filt._initial_landmark = spy_initial
-    ex.run_filter(run, filt, max_time=t_end)
+    filt.jacobians, filt.update = spy_jacobians, spy_update
+    runner.run_filter(run, filt, max_time=t_end)
     fused = sorted({int(s) for _, slots, _, _ in rows for s in slots})
     col = {s: 3 + 2 * j for j, s in enumerate(fused)}
     n = 3 + 2 * len(fused)
@@ -354,15 +354,17 @@ def motion_chain(filter_cls, run: Run, t_end: float = 20.0, options: dict | None
         raise ValueError(f"filter_cls: expected a LinearisedEKFSLAM (it keeps the propagated "
                          f"poses), got {filter_cls.__name__}")
     product, count = [np.eye(3)], [0]
-    predict_cov = filt._predict_cov
+    jacobians = filt.jacobians
 
-    def spy_predict(A, W):
-        product[0] = A @ product[0]              # Phi = A_k ... A_0
-        count[0] += 1
-        predict_cov(A, W)
+    def spy_jacobians(link, **kw):               # the filter's one linearisation hook
+        out = jacobians(link, **kw)
+        if link == "motion":                     # (A, W) of each prediction
+            product[0] = out[0] @ product[0]     # Phi = A_k ... A_0
+            count[0] += 1
+        return out
 
     start = np.array(filt.propagated_pose, dtype=float)
-    filt._predict_cov = spy_predict
+    filt.jacobians = spy_jacobians
     ex.run_filter(run, filt, max_time=t_end)
     d = np.asarray(filt.propagated_pose, dtype=float) - start
     whole = np.array([[1.0, 0.0, -d[1]], [0.0, 1.0, d[0]], [0.0, 0.0, 1.0]])
@@ -441,9 +443,9 @@ def _gate_trace(run: Run, method: str, gate: float):
     if method == "ideal_estimate":
         from ..ekf import IdealEKFSLAM
 
-        extra = {"truth": ex.truth_function(run), "landmarks": run.world().landmarks(),
+        extra = {"truth": runner.truth_function(run), "landmarks": run.world().landmarks(),
                  "t0": float(run.enc_t[0]), "innovation": "estimate"}
-        return ex._slam_with(IdealEKFSLAM, run, extra, gate=gate)
+        return runner._slam_with(IdealEKFSLAM, run, extra, gate=gate)
     from ..studies import _run_method
 
     return _run_method(run, method, gate)

@@ -49,7 +49,7 @@ from dataclasses import dataclass, field
 
 import numpy as np
 
-from ..models import wrap_angle
+from ..models import range_bearing, wrap_angle
 
 __all__ = ["robust_sigma", "OdometryWindows", "odometry_windows", "CommandFit",
            "fit_commands", "speed_residuals", "noise_density", "Whiteness", "whiteness",
@@ -296,9 +296,7 @@ def reading_residuals(log, landmarks=None) -> ReadingResiduals:
     t, ids = c.t_capture[keep], c.id[keep]
     pose = log.truth_at(t).reshape(-1, 3)
     L = np.array([lm[i] for i in ids.tolist()], dtype=float).reshape(-1, 2)
-    d = L - pose[:, :2]
-    rho = np.hypot(d[:, 0], d[:, 1])
-    bearing = wrap_angle(np.arctan2(d[:, 1], d[:, 0]) - pose[:, 2])
+    rho, bearing = range_bearing(L[:, 0] - pose[:, 0], L[:, 1] - pose[:, 1], pose[:, 2])
     return ReadingResiduals(t, ids, rho, c.rho[keep] - rho, wrap_angle(c.bearing[keep] - bearing))
 
 

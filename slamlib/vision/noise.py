@@ -128,10 +128,6 @@ class ErrorStudy:
         """(nd, na) standard deviation of the range error (m)."""
         return self._grid(self.error[:, 0], lambda v: np.std(v, ddof=1))
 
-    def bearing_bias(self) -> np.ndarray:
-        """(nd, na) mean bearing error (rad)."""
-        return self._grid(self.error[:, 1], np.mean)
-
     def bearing_std(self) -> np.ndarray:
         """(nd, na) standard deviation of the bearing error (rad)."""
         return self._grid(self.error[:, 1], lambda v: np.std(v, ddof=1))

@@ -1,0 +1,140 @@
+"""The simulator's compiled loop (slamlib.sim, numba): the one implementation of the
+simulator, whether numba compiles it, runs it as Python (NUMBA_DISABLE_JIT=1) or cannot
+cache it (a read-only package folder and HOME); and the runner's loop (issue 23)."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+from slamlib import runner, sim
+from slamlib.ekf import EKFSLAM
+
+ROOT = Path(__file__).resolve().parents[1]
+
+
+class _PythonLoopController(sim.WaypointController):
+    """The waypoint controller under another type: KobukiSim.drive then runs its Python loop."""
+
+
+@pytest.mark.parametrize("faults", [{}, {"p_misread": 0.1, "p_outlier": 0.3}])
+def test_compiled_drive_equals_the_python_loop_bit_for_bit(faults):
+    from slamlib.sensors import AnalyticMarkerSensor
+    from slamlib.worlds import load_world
+
+    world = load_world("report_arena")
+    ctl = sim.WaypointController(sim.arena_loop_waypoints())
+    slow = _PythonLoopController(sim.arena_loop_waypoints())
+    a = sim.simulate(world, ctl, sensor=AnalyticMarkerSensor(**faults), seed=21)
+    b = sim.simulate(world, slow, sensor=AnalyticMarkerSensor(**faults), seed=21)
+    for name in ("truth_t", "truth", "enc_t", "ticks_R", "ticks_L"):
+        assert np.array_equal(getattr(a, name), getattr(b, name)), name
+    for name in ("t_capture", "t_arrival", "id", "rho", "bearing", "true_id"):
+        assert np.array_equal(getattr(a.camera, name), getattr(b.camera, name)), name
+    assert a.meta["finished"] and b.meta["finished"]
+    # no camera at all: the same motion
+    c = sim.simulate(world, ctl, seed=21)
+    assert np.array_equal(c.truth, a.truth) and len(c.camera) == 0
+
+
+def test_a_step_with_a_non_finite_wheel_speed_is_refused():
+    from slamlib.worlds import load_world
+
+    s = sim.KobukiSim(load_world("report_arena"), seed=1)
+    with pytest.raises(ValueError, match="wheel speeds"):
+        s.step(0.1, float("nan"))
+    assert s.k == 0 and not s._slip          # nothing drawn, nothing moved
+
+
+
+_RUN = """
+import json, numpy as np
+from slamlib import runner, sim
+run = sim.scenario("arena_loop", seed=3)
+tr = runner.slam(run)
+print(json.dumps({"ids": run.camera.id.tolist(), "truth": run.truth[-1].tolist(),
+                  "ticks": run.ticks_R[-5:].tolist(), "status": tr.counts(),
+                  "landmarks": tr.filter.landmark_ids, "x": tr.filter.x.tolist()}))
+"""
+
+
+def _run_in(env_extra: dict, cwd=None, path=None) -> dict:
+    env = {k: v for k, v in os.environ.items() if k not in ("NUMBA_CACHE_DIR",
+                                                              "NUMBA_DISABLE_JIT")}
+    env.update(env_extra)
+    if path is not None:
+        env["PYTHONPATH"] = str(path)
+    out = subprocess.run([sys.executable, "-c", _RUN], env=env, cwd=cwd, capture_output=True,
+                         text=True, timeout=900)
+    assert out.returncode == 0, out.stderr[-2000:]
+    return json.loads(out.stdout.strip().splitlines()[-1])
+
+
+@pytest.fixture(scope="module")
+def compiled_result():
+    return _run_in({})
+
+
+def test_the_python_of_the_compiled_loop_gives_the_same_run_and_decisions(compiled_result):
+    """NUMBA_DISABLE_JIT=1 runs the same functions as Python: the same readings, the same
+    filter decisions, the same numbers to rounding."""
+    plain = _run_in({"NUMBA_DISABLE_JIT": "1"})
+    for key in ("ids", "ticks", "status", "landmarks"):
+        assert plain[key] == compiled_result[key], key
+    np.testing.assert_allclose(plain["truth"], compiled_result["truth"], rtol=0, atol=1e-12)
+    np.testing.assert_allclose(plain["x"], compiled_result["x"], rtol=0, atol=1e-9)
+
+
+def test_a_read_only_package_and_home_still_simulate(tmp_path, compiled_result):
+    """numba cannot cache beside the source nor in HOME: it compiles in memory instead of
+    failing (numba's ``RuntimeError: cannot cache function``). Even as root, a folder that
+    is a file cannot be created, so the copy below is unwritable for numba's cache."""
+    pkg = tmp_path / "site"
+    shutil.copytree(ROOT / "slamlib", pkg / "slamlib",
+                    ignore=shutil.ignore_patterns("__pycache__", "*.nbi", "*.nbc"))
+    for folder in [pkg / "slamlib", *(p for p in (pkg / "slamlib").rglob("*") if p.is_dir())]:
+        (folder / "__pycache__").write_text("not a folder")          # no cache beside a source
+    home = tmp_path / "home"
+    home.mkdir()
+    (home / ".cache").write_text("not a folder")                      # no user-wide cache
+    (pkg / "data").symlink_to(ROOT / "data")
+    got = _run_in({"HOME": str(home), "XDG_CACHE_HOME": str(home / ".cache")}, cwd=tmp_path,
+                  path=pkg)
+    assert got["ids"] == compiled_result["ids"] and got["status"] == compiled_result["status"]
+    assert got["x"] == compiled_result["x"]
+
+
+# --------------------------------------------------------------------------- the runner
+class _Recorder(EKFSLAM):
+    """EKFSLAM that logs the public calls the runner makes."""
+
+    def __init__(self, *args, **kwargs):
+        super().__init__(*args, **kwargs)
+        self.calls: list[str] = []
+
+    def predict(self, u, dt):
+        self.calls.append("predict")
+        super().predict(u, dt)
+
+    def update(self, ids, z, R=None):
+        self.calls.append("update")
+        return super().update(ids, z, R)
+
+
+@pytest.mark.parametrize("max_time", [None, 23.456])
+def test_the_runner_calls_predict_and_update_once_per_event(max_time):
+    run = sim.scenario("arena_loop", seed=11)
+    f = runner.make_filter(_Recorder, run)
+    tr = runner.run_filter(run, f, max_time=max_time)
+    assert f.calls == [str(k) for k in tr.kind[1:]]
+    b = runner.run_filter(run, runner.make_filter(EKFSLAM, run), max_time=max_time)
+    assert np.array_equal(tr.x, b.x) and np.array_equal(tr.P, b.P)
+    if max_time is not None:
+        assert tr.t[-1] <= max_time < run.enc_t[-1]
