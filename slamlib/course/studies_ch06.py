@@ -349,7 +349,7 @@ def motion_chain(filter_cls, run: Run, t_end: float = 20.0, options: dict | None
     :class:`slamlib.ekf.LinearisedEKFSLAM`): FEJ's product equals it to round-off, EKF SLAM's
     does not (its steps start at updated poses).
     """
-    filt = ex.make_filter(filter_cls, run, **(options or {}))
+    filt = runner.make_filter(filter_cls, run, **(options or {}))
     if not hasattr(filt, "propagated_pose"):
         raise ValueError(f"filter_cls: expected a LinearisedEKFSLAM (it keeps the propagated "
                          f"poses), got {filter_cls.__name__}")
@@ -365,7 +365,7 @@ def motion_chain(filter_cls, run: Run, t_end: float = 20.0, options: dict | None
 
     start = np.array(filt.propagated_pose, dtype=float)
     filt.jacobians = spy_jacobians
-    ex.run_filter(run, filt, max_time=t_end)
+    runner.run_filter(run, filt, max_time=t_end)
     d = np.asarray(filt.propagated_pose, dtype=float) - start
     whole = np.array([[1.0, 0.0, -d[1]], [0.0, 1.0, d[0]], [0.0, 0.0, 1.0]])
     return product[0], whole, count[0]
