@@ -205,7 +205,8 @@ def course_nees_monte_carlo(ctx: _Context):
 def course_nees_fej(ctx: _Context):
     """Chapter 06: EKF SLAM, the ideal EKF and FEJ over 100 seeds (stored by ``make studies``)."""
     stored = studies_ch06.load_ch06_studies()
-    names = {"slam": "EKF SLAM", "ideal": "ideal (Jacobians at the truth)", "fej": "FEJ EKF SLAM",
+    names = {"slam": "EKF SLAM", "fej": "FEJ EKF SLAM",
+             "ideal": "ideal (Jacobians at the truth, landmarks initialised at the estimate)",
              "ideal_init": "ideal, landmarks initialised at the truth too"}
     fig, axes = plt.subplots(2, 2, figsize=(11, 6.4), dpi=plots.DPI)
     for row, (key, title) in zip(axes, (("arena_0.10", "arena loop, sigma_wheel 0.10 m/s"),
