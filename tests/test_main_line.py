@@ -21,20 +21,30 @@ def _nb(*cells):
                       for t, tags, s in cells]}
 
 
-def test_folds_math_code_and_tables_are_not_main_line():
+def test_folds_math_fenced_code_and_tables_are_not_main_line():
     text = main_line.main_line_text(_nb(
         ("markdown", [], "Words here. <details><summary>More</summary>hidden 12 34</details> "
                          "after"),
         ("markdown", ["evidence"], "folded evidence 99"),
         ("markdown", ["answer"], "folded answer 98"),
         ("code", [], "print(1)"),
-        ("markdown", [], "Math $x_1 = 2$ and $$y = 3$$ and `code 4` and\n"
+        ("markdown", [], "Math $x_1 = 2$ and $$y = 3$$ and\n```\ncode 4\n```\n"
                          "| a | 5 |\n|---|---|\nend"),
     ))
     words = text.split()
     assert "hidden" not in words and "folded" not in words and "print(1)" not in words
     assert not any(ch.isdigit() for ch in text)   # every number was in math, code or folds
     assert {"Words", "after", "Math", "end"} <= set(words)
+
+
+def test_summaries_headings_links_and_inline_code_are_main_line():
+    text = main_line.main_line_text(_nb(
+        ("markdown", [], "## Heading 1\n<details><summary>Seen 2</summary>unseen 3</details>\n"
+                         "See [chapter 5](05_ekf_slam.ipynb) and `ekf.predict` x"),
+    ))
+    words = [w.strip(".,") for w in main_line._WORD.findall(text)]
+    assert {"Heading", "1", "Seen", "2", "chapter", "5", "ekf.predict"} <= set(words)
+    assert "unseen" not in words and "05_ekf_slam.ipynb" not in text
 
 
 def test_numbers_are_counted_per_hundred_words(tmp_path):

@@ -3,9 +3,11 @@
     python tools/main_line.py [notebooks/*.ipynb]
 
 The main line is every markdown cell that is not tagged ``evidence``, ``answer`` or
-``solution``, without its ``<details>...</details>`` blocks. Of its prose we count the
-words and the numbers (a word with a digit in it); math (``$...$``, ``$$...$$``),
-code (fenced and inline), markdown tables, HTML tags and link targets are not prose.
+``solution``, without the inside of its ``<details>...</details>`` blocks (their
+``<summary>`` line stays: it is read folded). Of its prose we count the words and the
+numbers (a word with a digit in it). Headings, link texts and inline code are read, so
+they count; math (``$...$``, ``$$...$$``), fenced code, markdown tables, HTML tags and
+link targets are not prose.
 The quality bar (COURSE.md, "Teach first"): at most 3,000 words and at most 5 numbers
 per 100 words.
 """
@@ -22,13 +24,14 @@ MAX_WORDS = 3000
 MAX_NUMBERS_PER_100 = 5.0
 FOLDED_TAGS = {"evidence", "answer", "solution"}
 
+_DETAILS = re.compile(r"<details\b.*?</details>", re.S | re.I)
+_SUMMARY = re.compile(r"<summary\b[^>]*>(.*?)</summary>", re.S | re.I)
 _STRIP = [
-    re.compile(r"<details\b.*?</details>", re.S | re.I),   # folded blocks
     re.compile(r"```.*?```", re.S),                         # fenced code
     re.compile(r"\$\$.*?\$\$", re.S),                       # display math
     re.compile(r"\\begin\{(\w+\*?)\}.*?\\end\{\1\}", re.S),  # LaTeX environments
     re.compile(r"(?<!\\)\$[^$\n]+?(?<!\\)\$"),              # inline math
-    re.compile(r"`[^`\n]*`"),                               # inline code
+    re.compile(r"`"),                                       # inline code's backticks
     re.compile(r"^\s*\|.*$", re.M),                         # markdown table rows
     re.compile(r"<[^>\n]+>"),                               # HTML tags
     re.compile(r"\]\([^)\s]*\)"),                           # link targets
@@ -55,7 +58,9 @@ class MainLine:
 
 
 def prose(markdown: str) -> str:
-    """The prose of one markdown cell: folds, math, code, tables, tags and link targets removed."""
+    """The prose of one markdown cell: folds (but their summaries), math, fenced code, tables,
+    tags and link targets removed."""
+    markdown = _DETAILS.sub(lambda m: " " + " ".join(_SUMMARY.findall(m.group(0))) + " ", markdown)
     for pattern in _STRIP:
         markdown = pattern.sub(" ", markdown)
     return markdown
