@@ -8,6 +8,7 @@ says what was expected, instead of a NaN three chapters later.
 from __future__ import annotations
 
 import json
+import math
 import numbers
 import re
 from collections.abc import Mapping
@@ -149,6 +150,13 @@ def as_covariance(name: str, value, size: int | None = None, *, semidefinite: bo
         If it is not square of the right size, not finite, not symmetric (to a
         relative 1e-9) or not positive (semi-)definite.
     """
+    if (size == 2 and type(value) is np.ndarray and value.dtype == np.float64
+            and value.shape == (2, 2) and not semidefinite):
+        a, b, c, d = value.ravel().tolist()              # the usual 2x2 (Q or R of a step)
+        scale = max(1.0, abs(a), abs(b), abs(c), abs(d))
+        if (math.isfinite(a + b + c + d) and abs(b - c) <= 1e-9 * scale and a > 0.0
+                and a * d - b * c > 1e-9 * a * d):       # clearly positive definite
+            return 0.5 * (value + value.T)
     arr = as_matrix(name, value, (size, size))
     if arr.shape[0] != arr.shape[1]:
         raise ValueError(f"{name}: expected a square matrix, got shape {arr.shape}")

@@ -152,3 +152,31 @@ def test_numbers_of_every_numeric_kind_still_work():
     f.gate = None
     g = EKFSLAM([0, 0, 0], np.eye(3, dtype=int), np.eye(2, dtype=np.float32), R, gate=0.9)
     assert g.x.dtype == float
+
+
+def test_a_2x2_covariance_is_judged_as_the_general_check_judges_it():
+    """``as_covariance``'s shortcut for a float 2x2 (a step's Q or R) accepts only what the
+    general check (symmetry to 1e-9, Cholesky) accepts, and returns the same bits."""
+    from slamlib.validate import as_covariance
+
+    rng = np.random.default_rng(7)
+    cases = [np.diag([1e-4, 2e-4]), np.array([[1.0, 1.0], [1.0, 1.0 + 1e-12]]),
+             np.array([[1.0, 0.5], [0.5 + 1e-6, 1.0]]), np.array([[1.0, 2.0], [2.0, 1.0]]),
+             np.array([[-1.0, 0.0], [0.0, 1.0]]), np.array([[np.nan, 0.0], [0.0, 1.0]]),
+             np.array([[1e300, 0.0], [0.0, 1e300]]), np.zeros((2, 2))]
+    for _ in range(200):
+        A = rng.normal(size=(2, 2)) * 10.0 ** rng.integers(-6, 3)
+        cases.append(A @ A.T + rng.choice([0.0, 1e-14, 1e-3]) * np.eye(2))
+    for M in cases:
+        general = M.astype(float).tolist()          # a list takes the general path
+        try:
+            want = as_covariance("Q", general, 2)
+        except ValueError:
+            want = None
+        try:
+            got = as_covariance("Q", M.astype(float), 2)
+        except ValueError:
+            got = None
+        assert (want is None) == (got is None), M
+        if want is not None:
+            assert np.array_equal(want, got), M
