@@ -48,3 +48,22 @@ def test_a_sample_of_the_stored_runs_is_recomputed_exactly(key, seeds):
         for seed, run in zip(seeds, mine["runs"]):
             assert_same_record(run, stored[m]["runs"][seed - studies_ch06.CH06_SEEDS[0]],
                                f"{m} {seed}")
+
+
+@pytest.mark.parametrize("name, rows", [("mrclam_heldout", "splits"), ("graph_mrclam", "robots")])
+def test_save_rows_writes_the_shipped_files_byte_for_byte(tmp_path, name, rows):
+    """The one writer of the row-per-line studies: what it writes parses back to the data,
+    and the shipped files are exactly what it writes of them."""
+    import json
+    from pathlib import Path
+
+    from slamlib.course.stored import save_rows
+
+    shipped = Path(__file__).resolve().parents[1] / "data" / "studies" / f"{name}.json"
+    data = json.loads(shipped.read_text(encoding="utf-8"))
+    save_rows(data, rows, tmp_path / "a.json")
+    assert (tmp_path / "a.json").read_bytes() == shipped.read_bytes()
+    small = {"format": "x", "n": 2, "rows": [{"a": 1.5}, [1, 2]], "empty": {}}
+    save_rows(small, "rows", tmp_path / "b.json")
+    text = (tmp_path / "b.json").read_text(encoding="utf-8")
+    assert json.loads(text) == small and text.count("\n") == 9

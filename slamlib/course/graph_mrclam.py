@@ -45,7 +45,6 @@ and compares.
 from __future__ import annotations
 
 import argparse
-import json
 import warnings
 from pathlib import Path
 
@@ -57,7 +56,7 @@ from ..datasets import identify, mrclam
 from ..metrics import chi2_quantile, nees, pose_error
 from ..models import observe, wrap_angle
 from ..worlds import DATA_DIR
-from .stored import load_stored
+from .stored import load_stored, save_rows
 
 __all__ = ["ESTIMATES", "FILTERED", "MAX_STEPS", "ROBUST_K", "PROFILE_STEP", "STUDY_FILE", "FORMAT",
            "robot_traces", "node_samples", "whitened_residuals", "figures", "solver_check",
@@ -298,17 +297,7 @@ def study(folder=mrclam.EXCERPT_DIR) -> dict:
 
 def save(data: dict, path=STUDY_FILE) -> None:
     """Write the study as JSON, one robot per line."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    rows = data["robots"]
-    lines = ["{", f'"format": {json.dumps(data["format"])},',
-             f'"folder": {json.dumps(data["folder"])},',
-             f'"robust_k": {json.dumps(data["robust_k"])},',
-             f'"max_steps": {json.dumps(data["max_steps"])},', '"robots": [']
-    for j, r in enumerate(rows):
-        lines.append(json.dumps(r, separators=(",", ":")) + ("," if j < len(rows) - 1 else ""))
-    lines += ["]", "}"]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    save_rows(data, "robots", path)
 
 
 class Study:

@@ -42,7 +42,6 @@ from __future__ import annotations
 
 import argparse
 import dataclasses
-import json
 import warnings
 from pathlib import Path
 
@@ -50,7 +49,7 @@ import numpy as np
 
 from ..datasets import identify, mrclam
 from ..worlds import DATA_DIR
-from .stored import load_stored
+from .stored import load_stored, save_rows
 
 __all__ = ["FORMAT", "STUDY_FILE", "VARIANTS", "CHOSEN", "EVERYTHING", "SPLITS", "IN_SAMPLE",
            "load_logs", "split_parts", "run_split", "study", "save", "load", "Study",
@@ -246,17 +245,7 @@ def study(full_folder, excerpt_folder=mrclam.EXCERPT_DIR, splits=tuple(SPLITS)) 
 
 def save(data: dict, path=STUDY_FILE) -> None:
     """Write the study as JSON, one split per line."""
-    path = Path(path)
-    path.parent.mkdir(parents=True, exist_ok=True)
-    head = {k: v for k, v in data.items() if k != "splits"}
-    lines = ["{"] + [f"{json.dumps(k)}: {json.dumps(v, separators=(',', ':'))}," for k, v in
-                     head.items()] + ['"splits": {']
-    items = list(data["splits"].items())
-    for j, (k, v) in enumerate(items):
-        lines.append(f"{json.dumps(k)}: {json.dumps(v, separators=(',', ':'))}"
-                     + ("," if j < len(items) - 1 else ""))
-    lines += ["}", "}"]
-    path.write_text("\n".join(lines) + "\n", encoding="utf-8")
+    save_rows(data, "splits", path)
 
 
 def compare(runs_a, runs_b, seed: int = 22, n_boot: int = 4000, clusters=None) -> dict:

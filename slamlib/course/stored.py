@@ -2,11 +2,12 @@
 
 from __future__ import annotations
 
+import json
 from pathlib import Path
 
 from ..validate import read_json_file
 
-__all__ = ["load_stored", "write_or_check"]
+__all__ = ["load_stored", "write_or_check", "save_rows"]
 
 
 def load_stored(path, make_target: str):
@@ -37,3 +38,21 @@ def write_or_check(path, build, argv: list[str], what: str = "stored study") -> 
     path.parent.mkdir(parents=True, exist_ok=True)
     path.write_text(text, encoding="utf-8")
     return 0
+
+
+def save_rows(data: dict, rows_key: str, path) -> None:
+    """Write a study as JSON that diffs well: each entry of ``data`` on its own line, the
+    rows ``data[rows_key]`` (a list, or a dict) last, one row per line, compact."""
+    def compact(v) -> str:
+        return json.dumps(v, separators=(",", ":"))
+
+    rows = data[rows_key]
+    if isinstance(rows, dict):
+        brackets, items = "{}", [f"{json.dumps(k)}: {compact(v)}" for k, v in rows.items()]
+    else:
+        brackets, items = "[]", [compact(v) for v in rows]
+    lines = (["{"] + [f"{json.dumps(k)}: {compact(v)}," for k, v in data.items() if k != rows_key]
+             + [f"{json.dumps(rows_key)}: {brackets[0]}", ",\n".join(items), brackets[1], "}"])
+    path = Path(path)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    path.write_text("\n".join(line for line in lines if line) + "\n", encoding="utf-8")
