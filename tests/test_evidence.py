@@ -148,3 +148,20 @@ def test_broken_filter_has_the_reports_H_and_the_stored_tracking_run_is_the_libr
     a = ev.load_study("arena_sign_error")["runs"][5]["tracking/library"]
     b = ev.load_study("arena_localization")["runs"][5]["clean/0.95"]
     assert a == {k: b[k] for k in a}
+
+
+def test_the_command_line_checks_a_study_against_its_file(capsys):
+    """``--check`` recomputes (here: a stand-in that returns the stored study, or one changed
+    number) and compares with the file, without writing it."""
+    from slamlib.course import evidence
+
+    stored = evidence.load_study("arena_noise")
+    changed = json.loads(json.dumps(stored))
+    changed["runs"][0][next(iter(changed["runs"][0]))] = "changed"
+    before = (evidence.EVIDENCE_DIR / "arena_noise.json").read_bytes()
+    assert evidence.main(["arena_noise", "--check"], {"arena_noise": None},
+                         lambda name, workers: stored) == 0
+    assert evidence.main(["arena_noise", "--check"], {"arena_noise": None},
+                         lambda name, workers: changed) == 1
+    assert "unchanged" in capsys.readouterr().out.splitlines()[0]
+    assert (evidence.EVIDENCE_DIR / "arena_noise.json").read_bytes() == before

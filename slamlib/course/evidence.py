@@ -435,6 +435,38 @@ def save_study(study: dict, folder=EVIDENCE_DIR) -> Path:
     return path
 
 
+def main(argv=None, studies=None, run=None, description: str | None = None) -> int:
+    """The command line that writes (or, with ``--check``, recomputes and compares) stored
+    studies: ``[names] [--workers N] [--check]``; every study of ``studies`` by default.
+
+    ``studies`` and ``run`` default to this module's :data:`STUDIES` and :func:`run_study`
+    (``tools/make_evidence.py``); chapters 07-08's studies pass theirs. Returns 1 if a
+    checked file differs.
+    """
+    import argparse
+    import time
+
+    studies, run = (STUDIES if studies is None else studies), (run or run_study)
+    ap = argparse.ArgumentParser(description=description)
+    ap.add_argument("studies", nargs="*", default=sorted(studies))
+    ap.add_argument("--workers", type=int, default=1)
+    ap.add_argument("--check", action="store_true")
+    args = ap.parse_args(argv)
+    bad = 0
+    for name in args.studies:
+        t0 = time.perf_counter()
+        study = run(name, workers=args.workers)
+        dt = time.perf_counter() - t0
+        if args.check:
+            path = EVIDENCE_DIR / f"{name}.json"
+            same = path.exists() and json.loads(path.read_text()) == json.loads(json.dumps(study))
+            print(f"{name}: {'unchanged' if same else 'DIFFERS'} ({dt:.0f} s)")
+            bad += not same
+        else:
+            print(f"{name}: wrote {save_study(study)} ({dt:.0f} s)")
+    return 1 if bad else 0
+
+
 def load_study(name: str, folder=EVIDENCE_DIR) -> dict:
     """Read ``folder/<name>.json``, checking its format, seeds and runs."""
     path = Path(folder) / f"{name}.json"

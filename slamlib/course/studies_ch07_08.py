@@ -49,7 +49,7 @@ import numpy as np
 
 from ..metrics import nees as _nees
 from ..studies import map_jobs, sample_trace
-from .evidence import FORMAT, load_study, save_study
+from .evidence import FORMAT, load_study
 
 __all__ = ["STUDIES", "STUDY_SEEDS", "RULE_THRESHOLD", "RULE_DURATION", "FEJ_DURATION",
            "FEJ_GRID", "LATENCIES", "TURN_BINS", "DELAY_METHODS", "position_nees",
@@ -256,31 +256,9 @@ def load(name: str) -> dict:
 
 def main(argv=None) -> int:
     """``python -m slamlib.course.studies_ch07_08 [names] [--workers N] [--check]``."""
-    import argparse
-    import json
-    import time
+    from .evidence import main as command_line
 
-    from .evidence import EVIDENCE_DIR
-
-    ap = argparse.ArgumentParser(description=__doc__.splitlines()[0])
-    ap.add_argument("studies", nargs="*", default=sorted(STUDIES))
-    ap.add_argument("--workers", type=int, default=1)
-    ap.add_argument("--check", action="store_true")
-    args = ap.parse_args(argv)
-    bad = 0
-    for name in args.studies:
-        t0 = time.perf_counter()
-        study = run_study(name, workers=args.workers)
-        dt = time.perf_counter() - t0
-        path = EVIDENCE_DIR / f"{name}.json"
-        if args.check:
-            same = path.exists() and json.loads(path.read_text()) == json.loads(
-                json.dumps(study))
-            print(f"{name}: {'unchanged' if same else 'DIFFERS'} ({dt:.0f} s)")
-            bad += not same
-        else:
-            print(f"{name}: wrote {save_study(study)} ({dt:.0f} s)")
-    return 1 if bad else 0
+    return command_line(argv, STUDIES, run_study, __doc__.splitlines()[0])
 
 
 if __name__ == "__main__":
