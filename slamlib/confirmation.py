@@ -171,4 +171,4 @@ def confirmed_slam(run: Run, *, gate: float | None = 0.95, n_confirm: int = 2,
     """:func:`slamlib.runner.slam` with :class:`ConfirmedSLAM` (chapter 05)."""
     filt = runner.make_filter(ConfirmedSLAM, run, Q=Q, P0=P0, gate=gate, n_confirm=n_confirm,
                               max_gap=max_gap, confirm=confirm)
-    return runner.run_filter(run, filt, by=by, until=until)
+    return runner.run_filter(run, filt, by=by, until=until, use_run_Q_steps=Q is None)

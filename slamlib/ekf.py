@@ -14,7 +14,7 @@ function on these blocks, the code the chapters print and the filters run:
 
 The filters are thin classes over them: :class:`EKFLocalization`, :class:`EKFSLAM`,
 :class:`LinearisedEKFSLAM` and its presets :class:`FEJEKFSLAM` and :class:`IdealEKFSLAM`
-(in their own modules ``ConfirmedSLAM`` and ``DelayedEKF``). ``update(ids, z, R)``
+(``ConfirmedSLAM``, in its own module, too; ``DelayedEKF`` wraps any of them). ``update(ids, z, R)``
 follows the report (V.C, corrected): association by id (chapter 09: nearest
 neighbour or JCBB), each reading gated against the prior, the accepted ones
 fused jointly, then the ids never seen before added from the updated pose in the
@@ -120,8 +120,8 @@ def stacked_jacobian(slots: np.ndarray, H_pose: np.ndarray, H_landmark: np.ndarr
     ``H_landmark[j]`` in its landmark's ``l_j = (slots[j], slots[j] + 1)``; every
     other column of the full H (2m x n) is zero, so only the index set
     ``idx = [r, l_1, ..., l_m]`` is kept (a landmark read twice appears twice: the
-    products below add its two parts). A known map (chapter 03, slots -1) has
-    no landmark columns.
+    products below add its two parts). A known map (chapter 03: every slot -1) has
+    no landmark columns; slots are either all -1 or all landmarks of the state.
 
     Returns
     -------
@@ -425,7 +425,8 @@ class EKFLocalization:
     R = _Checked(lambda v: as_covariance("R", v, 2), "Default covariance of a reading (2x2).")
     wheel_base = _Checked(lambda v: as_positive("wheel_base", v), "b (m).")
     new_gate = _Checked(lambda v: _check_gate(v, "new_gate", none=False), """Without ids: a
-        reading is new only if its d2 to every landmark is at least chi2.ppf(new_gate, 2).""")
+        reading is new only if its d2 to every landmark is at least chi2.ppf(new_gate, 2) (and
+        at least the gate's threshold, if the gate is wider).""")
     max_nodes = _Checked(lambda v: integer_at_least("max_nodes", v, 1),
                          "JCBB's bound on the nodes searched per frame.")
 
@@ -530,7 +531,7 @@ class EKFLocalization:
         n, b = self._n, self._wheel_base
         step = (self._x[:n], self._P[:n, :n], u, dt, b, Q, A, W)
         if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
-            return predict(*step)                  # the usual case: nothing can overflow
+            return predict(*step)                  # the usual case: u and dt cannot overflow
         with np.errstate(all="ignore"):            # an overflow is refused, without a warning
             return predict(*step)
 
@@ -557,7 +558,7 @@ class EKFLocalization:
             On bad input, or when the result would not be finite: nothing changes.
         """
         with np.errstate(all="ignore"):            # an overflow is refused, without a warning
-            if ids is None or self._association != "ids":
+            if self._association != "ids":
                 return self._update_without_ids(ids, z, R)
             return self._update_ids(ids, z, R)
 
@@ -660,14 +661,12 @@ class EKFLocalization:
            :func:`~slamlib.association.jcbb` (``"jcbb"``, on the landmarks inside
            some reading's gate, with the cross terms of C).
         3. The paired readings in one joint update, as with ids.
-        4. A reading far from every landmark (``d2 >= chi2.ppf(new_gate, 2)``) goes
+        4. A reading far from every landmark (``d2 >= chi2.ppf(max(new_gate, gate), 2)``) goes
            to :meth:`_admit`; any other unpaired reading is ``"rejected"``.
 
         The report's ``ids`` are -1; ``matched`` is the answer; ``d2``, ``innovation``,
         ``predicted`` and ``S`` refer to the paired landmark, else the nearest.
         """
-        if self._association == "ids":
-            as_marker_ids(None)                     # raises: None needs association "nn"/"jcbb"
         if ids is not None:
             raise ValueError(f"ids: this filter (association={self._association!r}) pairs the "
                              f"readings itself: call update(None, z) without ids, or build "
@@ -754,8 +753,8 @@ class EKFSLAM(EKFLocalization):
     ----------
     x0, P0, Q, R, wheel_base, gate, association
         As for :class:`EKFLocalization` (no map: it starts empty). Without ids a
-        reading outside every gate is added as a new landmark, named by the
-        filter (0, 1, 2, ...).
+        reading outside every landmark's ``new_gate`` is added as a new landmark,
+        named by the filter (0, 1, 2, ...).
     capacity : int
         Landmarks to make room for at the start (the storage doubles when needed).
     """
@@ -932,8 +931,10 @@ class LinearisedEKFSLAM(EKFSLAM):
             _, Hp1, Hl1 = self.reading_model(self._propagated.copy(), first)
             ok = np.all(np.isfinite(Hp1), axis=(1, 2))
             Hp[ok], Hl[ok] = Hp1[ok], Hl1[ok]
+        if "truth" not in (self.observation, self.innovation):
+            return h, Hp, Hl
         kk = np.flatnonzero([int(i) in self._true_map for i in ids])       # in the true map
-        if kk.size == 0 or self.observation == self.innovation == "estimate":
+        if kk.size == 0:
             return h, Hp, Hl
         pt = self._true_pose(self.t)
         mt = np.array([self._true_map[int(i)] for i in ids[kk]])
@@ -958,7 +959,7 @@ class LinearisedEKFSLAM(EKFSLAM):
             if mid not in self._true_map:
                 continue
             mt = self._true_map[mid]
-            zt = observe_landmarks(pt, mt[None, :])[0][0]                 # the true reading
+            zt = self.reading_model(pt, mt[None, :])[0][0]                # the true reading
             J1[j], J2[j] = inverse_observation_jacobians(pt, zt)
             dp, dz = self._x[:3] - pt, z[j] - zt
             dp[2], dz[1] = wrap(dp[2]), wrap(dz[1])

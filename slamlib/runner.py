@@ -195,7 +195,8 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     use_run_Q_steps : bool
         Give each step the covariance of ``u`` the run gives it
         (:meth:`Run.Q_steps`: a real log's noise density, chapter 10), when
-        it gives one; otherwise the filter's own Q at every step.
+        it gives one (then ``filt.predict`` is called as ``predict(u, dt, Q)``);
+        otherwise the filter's own Q at every step (``predict(u, dt)``).
     max_time : float, optional
         Stop after this time (s).
     until : float, optional
@@ -208,8 +209,8 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
     pending = None
     rec = TraceRecorder(run.enc_t[0], filt)
     u_all, dt_all, events = run._event_blocks(by)      # the events of run.events(by)
+    Q_all = run.Q_steps(dt_all) if use_run_Q_steps else None   # None: the filter's own Q
     dt_all = dt_all.tolist()
-    Q_all = run.Q_steps(np.asarray(dt_all)) if use_run_Q_steps else None   # None: filter's Q
     # each reading's R = sensor.R(range), for all the run's readings at once
     cam = run.camera
     R_rows = reading_covariances(sensor, np.column_stack([cam.rho, cam.bearing]))
@@ -219,7 +220,7 @@ def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True
             for j, t in zip(range(j0, j1), times):
                 if max_time is not None and t > max_time:
                     return rec.trace(run, filt, pending=pending)
-                if Q_all is None:                     # a filter written by hand takes (u, dt)
+                if Q_all is None:                     # the filter's own Q
                     filt.predict(u_all[j], dt_all[j])
                 else:                                 # this step's own Q (chapter 10)
                     filt.predict(u_all[j], dt_all[j], Q_all[j])

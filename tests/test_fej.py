@@ -224,3 +224,17 @@ def test_public_api_fej_is_used_like_ekf_slam():
     assert f.pose.shape == (3,) and f.pose_cov.shape == (3, 3)
     with pytest.raises(ValueError, match="z"):
         f.update([3], [[np.nan, 0.0]])
+
+
+def test_fej_given_a_true_map_but_no_truth_ignores_the_map():
+    """A true map is used only by a link at the truth: FEJ given one (and no true
+    trajectory) runs, and filters exactly as FEJ without it."""
+    with_map = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-4, Q, R, landmarks=LANDMARKS)
+    plain = FEJEKFSLAM([0.0, 0.0, 0.1], np.eye(3) * 1e-4, Q, R)
+    ids = np.array(sorted(LANDMARKS))
+    for f in (with_map, plain):
+        for k in range(3):
+            f.predict(np.array([0.2, 0.21]), 0.1)
+            pose = f.pose
+            f.update(ids, np.array([observe(pose, LANDMARKS[i]) + 0.01 * k for i in ids]))
+    assert np.array_equal(with_map.x, plain.x) and np.array_equal(with_map.P, plain.P)

@@ -264,7 +264,7 @@ class Observability:
 
 
 def observability(filter_cls, run: Run, t_end: float = 20.0, options: dict | None = None,
-                  **kwargs) -> Observability:
+                  Q=None, gate: float | None = 0.95) -> Observability:
     """Record the Jacobians a SLAM filter (``EKFSLAM``, ``FEJEKFSLAM``, ``LinearisedEKFSLAM``
     with ``options``) uses on ``run`` up to ``t_end`` and build its observability matrix
     (chapter 06's numerical check).
@@ -275,8 +275,7 @@ def observability(filter_cls, run: Run, t_end: float = 20.0, options: dict | Non
     landmarks that were fused at least once are kept (a landmark seen only when
     it was added constrains nothing).
     """
-    filt = runner.make_filter(filter_cls, run, Q=kwargs.get("Q"), gate=kwargs.get("gate", 0.95),
-                              **(options or {}))
+    filt = runner.make_filter(filter_cls, run, Q=Q, gate=gate, **(options or {}))
     phi = [np.eye(3)]
     rows = []                                   # (Phi so far, slots, Hp, Hl)
     first: dict[int, np.ndarray] = {}          # slot -> where the landmark was put
@@ -309,7 +308,7 @@ def observability(filter_cls, run: Run, t_end: float = 20.0, options: dict | Non
         return rep
 
     filt.jacobians, filt.update = spy_jacobians, spy_update
-    runner.run_filter(run, filt, max_time=t_end)
+    runner.run_filter(run, filt, max_time=t_end, use_run_Q_steps=Q is None)
     fused = sorted({int(s) for _, slots, _, _ in rows for s in slots})
     col = {s: 3 + 2 * j for j, s in enumerate(fused)}
     n = 3 + 2 * len(fused)
@@ -441,11 +440,7 @@ GATE_METHODS = ("slam", "fej", "ideal", "ideal_estimate")
 
 def _gate_trace(run: Run, method: str, gate: float):
     if method == "ideal_estimate":
-        from ..ekf import IdealEKFSLAM
-
-        extra = {"truth": runner.truth_function(run), "landmarks": run.world().landmarks(),
-                 "t0": float(run.enc_t[0]), "innovation": "estimate"}
-        return runner._slam_with(IdealEKFSLAM, run, extra, gate=gate)
+        return runner.ideal_slam(run, innovation="estimate", gate=gate)
     from ..studies import _run_method
 
     return _run_method(run, method, gate)
