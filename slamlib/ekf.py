@@ -160,9 +160,10 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     ``d2`` (m,), ``S_i`` (m, 2, 2) and which readings are accepted (m,).
     """
     S_i = diagonal_blocks(S)                                # S_i = H_i P H_i' + R_i
-    a, b, c = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]      # S_i^-1 = [[c, -b], [-b, a]] / det
+    s11, s12, s22 = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]  # S_i = [[s11, s12], [s12, s22]]
+    det = s11 * s22 - s12 * s12                 # S_i^-1 = [[s22, -s12], [-s12, s11]] / det
     y0, y1 = y[:, 0], y[:, 1]
-    d2 = (c * y0 * y0 - 2.0 * b * y0 * y1 + a * y1 * y1) / (a * c - b * b)  # d2 = y' S_i^-1 y
+    d2 = (s22 * y0 * y0 - 2.0 * s12 * y0 * y1 + s11 * y1 * y1) / det   # d2 = y' S_i^-1 y
     if threshold == math.inf:                               # no gate: every reading
         return d2, S_i, np.ones(d2.shape, dtype=bool)
     return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)
@@ -215,20 +216,20 @@ def landmark_covariance(J1: np.ndarray, P_rr: np.ndarray, J2: np.ndarray, R: np.
     return (P_ll + P_ll.T) / 2
 
 
-def augment(x: np.ndarray, P: np.ndarray, n: int, m: np.ndarray, J1: np.ndarray,
+def augment(x: np.ndarray, P: np.ndarray, n: int, x_l: np.ndarray, J1: np.ndarray,
             J2: np.ndarray, R: np.ndarray) -> None:
     """Append a landmark read as ``z`` to the state (chapter 04, section 5), in place.
 
     ``x`` and ``P`` are the filter's storage, larger than the state's n
-    entries; the landmark goes to ``l = (n, n + 1)``. ``m = g(x_r, z)`` and
+    entries; the landmark goes to ``l = (n, n + 1)``. ``x_l = g(x_r, z)`` and
     ``J1 = dg/dx_r``, ``J2 = dg/dz`` where the filter linearises
     (:meth:`EKFLocalization.jacobians`). The new landmark is correlated with the robot and,
     through it, with every landmark already mapped; the old block of P is untouched.
     """
-    r, l, a = ROBOT, slice(n, n + 2), slice(0, n)
-    x[l] = m                                                # [A1] x_l = g(x_r, z)
-    P[l, a] = J1 @ P[r, a]                                  # [A2] P_lx = J1 P_rx
-    P[a, l] = P[l, a].T                                     #      P_xl = P_lx'
+    r, l, old = ROBOT, slice(n, n + 2), slice(0, n)        # old: the n entries before
+    x[l] = x_l                                              # [A1] x_l = g(x_r, z)
+    P[l, old] = J1 @ P[r, old]                              # [A2] P_lx = J1 P_rx
+    P[old, l] = P[l, old].T                                 #      P_xl = P_lx'
     P[l, l] = landmark_covariance(J1, P[r, r], J2, R)       # [A3] P_ll = J1 P_rr J1' + J2 R J2'
     #                                                         [A4] the old block of P untouched
 
