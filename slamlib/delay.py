@@ -59,7 +59,7 @@ import numpy as np
 
 from .ekf import UpdateReport
 from .models import inverse_observe, motion_model, observe
-from .runner import Trace, TraceRecorder, reading_covariances
+from .runner import Trace, TraceRecorder, reading_covariances, sensor_noise
 from .runs import Run
 from .validate import as_finite_scalar, as_positive
 
@@ -259,8 +259,9 @@ class DelayedEKF:
         return self._base_t
 
     # ------------------------------------------------------------------ events
-    def predict(self, u, dt: float, t: float | None = None) -> None:
-        """Predict with wheel speeds ``u`` over ``dt`` up to time ``t`` (default ``t + dt``).
+    def predict(self, u, dt: float, t: float | None = None, Q=None) -> None:
+        """Predict with wheel speeds ``u`` over ``dt`` up to time ``t`` (default ``t + dt``),
+        with this step's covariance ``Q`` of ``u`` (default the filter's own).
 
         ``t`` must not be earlier than the filter's time. Bad ``u`` or ``dt``
         raise ValueError (from the filter) before anything changes.
@@ -270,9 +271,11 @@ class DelayedEKF:
         t = as_finite_scalar("t", t)
         if t < self._t:
             raise ValueError(f"t: expected a time >= the filter's time {self._t}, got {t}")
-        self._filt.predict(u, dt)            # checks u and dt before anything changes
+        args = (u, dt) if Q is None else (u, dt, Q)
+        self._filt.predict(*args)            # checks u, dt (and Q) before anything changes
         u = np.array(u, dtype=float, copy=True)
-        self._append(_Entry(t, "predict", (u, dt), None))
+        args = (u, dt) if Q is None else (u, dt, np.array(Q, dtype=float))
+        self._append(_Entry(t, "predict", args, None))
         self._t = t
         self._prune()
 
@@ -397,7 +400,7 @@ def run_delayed(run: Run, filt, *, max_delay: float = 1.0, by: str = "arrival",
     robot) or capture time and stamped with their capture time; each reading
     gets ``sensor.R(range)`` as in :func:`slamlib.runner.run_filter`.
     """
-    sensor = run.sensor() if use_sensor_R else None
+    sensor = sensor_noise(run) if use_sensor_R else None
     t0 = float(run.enc_t[0])
     w = DelayedEKF(filt, max_delay=max_delay, t0=t0, record=True)
     rec = TraceRecorder(t0, w)
@@ -405,7 +408,7 @@ def run_delayed(run: Run, filt, *, max_delay: float = 1.0, by: str = "arrival",
     for ev in run.events(by=by):
         report = None
         if ev.kind == "predict":
-            w.predict(ev.u, ev.dt, ev.t)
+            w.predict(ev.u, ev.dt, ev.t, _step_Q(run, ev.dt))
         else:
             obs = ev.obs
             if len(obs) == 0:
@@ -423,6 +426,13 @@ def run_delayed(run: Run, filt, *, max_delay: float = 1.0, by: str = "arrival",
                     P=np.array([s[3] for s in st]), truth=run.truth_at(ts),
                     reports=[(s[0], s[4]) for s in st if s[4] is not None], filter=w.filter)
     return DelayedTraces(realtime=realtime, settled=settled, updates=updates, wrapper=w)
+
+
+def _step_Q(run: Run, dt: float):
+    """The step's own covariance of ``u`` that :func:`slamlib.runner.run_filter` gives it
+    (:meth:`Run.Q_steps`, a real log's density), or None (the filter's own)."""
+    Q = run.Q_steps(np.array([dt], dtype=float))
+    return None if Q is None else Q[0]
 
 
 # --------------------------------------------------------------------------- the cheap alternative
@@ -454,7 +464,7 @@ def run_compensated(run: Run, filt, *, max_delay: float = 1.0, use_sensor_R: boo
     Frames older than ``max_delay`` are dropped. O(log L) per frame, no replay.
     """
     as_positive("max_delay", max_delay)
-    sensor = run.sensor() if use_sensor_R else None
+    sensor = sensor_noise(run) if use_sensor_R else None
     t0 = float(run.enc_t[0])
     odo = run.start_pose.copy()
     times, poses = [t0], [odo.copy()]
@@ -462,7 +472,11 @@ def run_compensated(run: Run, filt, *, max_delay: float = 1.0, use_sensor_R: boo
     for ev in run.events(by="arrival"):
         report = None
         if ev.kind == "predict":
-            filt.predict(ev.u, ev.dt)
+            Q = _step_Q(run, ev.dt)
+            if Q is None:
+                filt.predict(ev.u, ev.dt)
+            else:
+                filt.predict(ev.u, ev.dt, Q)
             odo = motion_model(odo, ev.u, ev.dt, run.wheel_base)
             times.append(ev.t)
             poses.append(odo)

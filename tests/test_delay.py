@@ -272,3 +272,30 @@ def test_latency_study_cache_is_used_and_filled(monkeypatch):
     assert again == plain
     # the naive filter at 0.1 s is already worse than the compensated one
     assert plain[0]["ate_xy"] > 2 * plain[1]["ate_xy"]
+
+
+class _DensityRun:
+    """``late_run`` whose noise is a density, as a real log's (chapter 10): each step's Q is
+    ``Q_c / dt`` (:meth:`Run.Q_steps`), with ``Q_c`` a hundredth of a second's nominal Q."""
+
+    def __init__(self, run):
+        self._run = run
+
+    def __getattr__(self, name):
+        return getattr(self._run, name)
+
+    def Q_steps(self, dt):
+        dt = np.asarray(dt, dtype=float)
+        return (0.01 * self._run.Q())[None] * (0.02 / dt)[:, None, None]
+
+
+def test_late_frames_on_a_density_log_equal_plain_filter_by_capture(late_run):
+    """The wrapper gives each step the run's own Q, as runner.run_filter does: the settled
+    trace of a density log is still the plain filter's by capture time (and differs from
+    the same run with the filter's fixed Q)."""
+    run = _DensityRun(late_run)
+    ref = runner.run_filter(run, make_filter(run, "slam"), by="capture")
+    fixed_Q = runner.run_filter(late_run, make_filter(late_run, "slam"), by="capture")
+    d = run_delayed(run, make_filter(run, "slam"), max_delay=1.0, by="arrival")
+    _assert_traces_equal(d.settled, ref)
+    assert np.max(np.abs(ref.P - fixed_Q.P)) > 1e-6
