@@ -28,7 +28,7 @@ def test_folds_math_fenced_code_and_tables_are_not_main_line():
         ("markdown", ["evidence"], "folded evidence 99"),
         ("markdown", ["answer"], "folded answer 98"),
         ("code", [], "print(1)"),
-        ("markdown", [], "Math $x_1 = 2$ and $$y = 3$$ and\n```\ncode 4\n```\n"
+        ("markdown", [], "Math $x_1 = 2$ and $$y = 3$$ and $a +\nb_5$ and\n```\ncode 4\n```\n"
                          "| a | 5 |\n|---|---|\nend"),
     ))
     words = text.split()

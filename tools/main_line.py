@@ -30,7 +30,7 @@ _STRIP = [
     re.compile(r"```.*?```", re.S),                         # fenced code
     re.compile(r"\$\$.*?\$\$", re.S),                       # display math
     re.compile(r"\\begin\{(\w+\*?)\}.*?\\end\{\1\}", re.S),  # LaTeX environments
-    re.compile(r"(?<!\\)\$[^$\n]+?(?<!\\)\$"),              # inline math
+    re.compile(r"(?<!\\)\$(?:[^$\n]|\n(?![ \t]*\n))+?(?<!\\)\$"),  # inline math (one paragraph)
     re.compile(r"`"),                                       # inline code's backticks
     re.compile(r"^\s*\|.*$", re.M),                         # markdown table rows
     re.compile(r"<[^>\n]+>"),                               # HTML tags
