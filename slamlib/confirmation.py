@@ -37,7 +37,15 @@ import dataclasses
 import numpy as np
 
 from . import runner
-from .ekf import EKFSLAM, UpdateReport, gate_threshold, integer_at_least, landmark_covariance
+from .ekf import (
+    EKFSLAM,
+    UpdateReport,
+    _check_gate,
+    _Checked,
+    gate_threshold,
+    integer_at_least,
+    landmark_covariance,
+)
 from .metrics import mahalanobis2
 from .models import KOBUKI_WHEEL_BASE
 from .runs import Run
@@ -88,14 +96,16 @@ class ConfirmedSLAM(EKFSLAM):
                  max_gap: int = 2, confirm: float = 0.95, association: str = "ids"):
         super().__init__(x0, P0, Q, R, wheel_base=wheel_base, gate=gate, capacity=capacity,
                          association=association)
-        self.n_confirm = integer_at_least("n_confirm", n_confirm, 1)
-        self.max_gap = integer_at_least("max_gap", max_gap, 1)
-        if not 0.0 < confirm < 1.0:
-            raise ValueError(f"confirm: expected a probability in (0, 1), got {confirm!r}")
-        self.confirm_threshold = gate_threshold(confirm)
+        self.n_confirm, self.max_gap = n_confirm, max_gap
+        self.confirm_threshold = gate_threshold(_check_gate(confirm, "confirm", none=False))
         self.candidates: dict[int, Candidate] = {}
         self.frame = 0
         self._next_candidate = 0        # names of the candidates without ids
+
+    n_confirm = _Checked(lambda v: integer_at_least("n_confirm", v, 1),
+                         "Sightings needed before an id is added (checked on set).")
+    max_gap = _Checked(lambda v: integer_at_least("max_gap", v, 1),
+                       "Update calls a sighting may come after the previous one (checked on set).")
 
     def update(self, ids, z, R=None) -> UpdateReport:
         """:meth:`EKFSLAM.update`, in which a reading of no mapped landmark confirms a candidate

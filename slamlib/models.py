@@ -35,7 +35,7 @@ __all__ = [
     "polar_to_cartesian", "polar_to_cartesian_jacobian",
     "compose_point", "compose_point_jacobians",
     "compose_poses", "compose_poses_jacobians", "invert_pose",
-    "inverse_observe", "inverse_observation_jacobians",
+    "inverse_observe", "inverse_observation_jacobians", "wrap",
 ]
 
 #: Kobuki wheel base b (m), distance between the wheels' contact points.

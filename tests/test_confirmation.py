@@ -173,3 +173,17 @@ def test_on_the_misread_run_no_misread_id_is_mapped(misread_run):
     assert np.count_nonzero(cam.id != cam.true_id) > 20      # the run does contain misreads
     plain = set(runner.slam(misread_run, gate=0.95).filter.landmark_ids)
     assert len(plain - set(world.landmarks())) > 10
+
+
+@pytest.mark.parametrize("bad", [{"confirm": "0.9"}, {"confirm": 1.0}, {"n_confirm": 0},
+                                 {"max_gap": 1.5}, {"n_confirm": True}])
+def test_confirmation_parameters_are_checked_when_given_and_when_set(bad):
+    args = ([0.0, 0.0, 0.0], np.eye(3) * 1e-4, np.eye(2) * 1e-4, np.eye(2) * 1e-3)
+    with pytest.raises(ValueError, match=next(iter(bad))):
+        ConfirmedSLAM(*args, **bad)
+    f = ConfirmedSLAM(*args)
+    name, value = next(iter(bad.items()))
+    if name != "confirm":
+        with pytest.raises(ValueError, match=name):
+            setattr(f, name, value)
+        assert getattr(f, name) >= 1
