@@ -67,7 +67,6 @@ STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
 ASSOCIATIONS = ("ids", "nn", "jcbb")
 #: r: the robot's entries of the state.
 ROBOT, ROBOT_IDX = slice(0, 3), np.arange(3)
-_ONES3 = np.ones(3)
 
 
 # --------------------------------------------------------------------------- the steps
@@ -85,7 +84,7 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q:
     r, m = ROBOT, slice(3, None)
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
     P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # [P1] P_rr = A P_rr A' + W Q W'
-    if not math.isfinite(x_r @ _ONES3 + P_rr.trace()):    # (P_rm overflows only if P_rr does)
+    if not math.isfinite(x_r.sum() + P_rr.trace()):       # (P_rm overflows only if P_rr does)
         raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
     x[r] = x_r
     P[r, m] = A @ P[r, m]                                 # [P2] P_rm = A P_rm

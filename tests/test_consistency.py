@@ -17,8 +17,7 @@ import numpy as np
 import pytest
 from dense_ekf import DenseEKF
 
-from slamlib import runner as ex
-from slamlib import studies
+from slamlib import runner, studies
 from slamlib.ekf import EKFSLAM, EKFLocalization
 from slamlib.metrics import chi2_band
 from slamlib.runs import load_run
@@ -54,7 +53,7 @@ def test_average_nees_is_inside_the_95_percent_band(monte_carlo, which):
 
 def _trace_pair(run, fn):
     gated, open_ = fn(run, gate=0.95), fn(run, gate=None)
-    return ex.ate(gated.x, gated.truth), ex.ate(open_.x, open_.truth), gated, open_
+    return runner.ate(gated.x, gated.truth), runner.ate(open_.x, open_.truth), gated, open_
 
 
 @pytest.fixture(scope="module")
@@ -65,7 +64,7 @@ def misread_runs():
 def test_gate_keeps_slam_on_track_with_misread_ids(misread_runs):
     gated_ate, open_ate = [], []
     for run in misread_runs:
-        a, b, gated, open_ = _trace_pair(run, ex.slam)
+        a, b, gated, open_ = _trace_pair(run, runner.slam)
         counts_g, counts_o = gated.counts(), open_.counts()
         assert counts_g.get("rejected", 0) > 0 and counts_o.get("rejected", 0) == 0
         gated_ate.append(a.position)
@@ -79,7 +78,7 @@ def test_gate_keeps_slam_on_track_with_misread_ids(misread_runs):
 def test_gate_keeps_localization_on_track_with_misread_ids(misread_runs):
     gated_ate, open_ate = [], []
     for run in misread_runs:
-        a, b, _, _ = _trace_pair(run, ex.localization)
+        a, b, _, _ = _trace_pair(run, runner.localization)
         gated_ate.append(a.position)
         open_ate.append(b.position)
     print(f"localisation ATE with the gate {np.round(gated_ate, 4)} m, "
@@ -119,7 +118,7 @@ def _drive_pair(run, fast, dense):
 @pytest.mark.parametrize("name", ["arena_loop_misreads", "random_loop"])
 def test_recorded_run_slam_equals_dense(name):
     run = load_run(name)
-    args = (run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0))
+    args = (run.start_pose, runner.DEFAULT_P0, run.Q(), run.sensor().R(2.0))
     fast = EKFSLAM(*args, wheel_base=run.wheel_base)
     dense = DenseEKF(*args, wheel_base=run.wheel_base)
     n, worst = _drive_pair(run, fast, dense)
@@ -131,7 +130,7 @@ def test_recorded_run_slam_equals_dense(name):
 def test_recorded_run_localization_equals_dense():
     run = load_run("arena_loop_misreads")
     lm = run.world().landmarks()
-    args = (run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0), lm)
+    args = (run.start_pose, runner.DEFAULT_P0, run.Q(), run.sensor().R(2.0), lm)
     n, _ = _drive_pair(run, EKFLocalization(*args, wheel_base=run.wheel_base),
                       DenseEKF(*args, wheel_base=run.wheel_base))
     assert n > 300

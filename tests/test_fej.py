@@ -5,8 +5,7 @@ from __future__ import annotations
 import numpy as np
 import pytest
 
-from slamlib import runner as ex
-from slamlib import sim, studies
+from slamlib import runner, sim, studies
 from slamlib.ekf import EKFSLAM, FEJEKFSLAM, IdealEKFSLAM
 from slamlib.metrics import chi2_band
 from slamlib.models import motion_model, observe, observe_landmarks
@@ -132,8 +131,8 @@ def test_fej_means_move_like_ekf_slam_until_the_jacobians_differ():
 
 def test_ideal_jacobians_are_the_truths():
     run = sim.scenario("arena_loop", seed=3)
-    truth = ex.truth_function(run)
-    f = IdealEKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0),
+    truth = runner.truth_function(run)
+    f = IdealEKFSLAM(run.start_pose, runner.DEFAULT_P0, run.Q(), run.sensor().R(2.0),
                      truth=truth, landmarks=run.world().landmarks())
     got = []
     _spy(f, "motion", got)
@@ -151,7 +150,7 @@ def test_ideal_jacobians_are_the_truths():
     assert np.array_equal(truth(run.enc_t[20]), run.truth[20])
     assert np.allclose(truth(0.011), run.truth_at(0.011), atol=1e-12)
     with pytest.raises(ValueError, match="truth"):
-        IdealEKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), run.sensor().R(2.0), truth=None,
+        IdealEKFSLAM(run.start_pose, runner.DEFAULT_P0, run.Q(), run.sensor().R(2.0), truth=None,
                      landmarks={})
 
 

@@ -7,8 +7,7 @@ import pytest
 from hypothesis import given
 from hypothesis import strategies as st
 
-from slamlib import graph
-from slamlib import runner as ex
+from slamlib import graph, runner
 from slamlib.ekf import EKFLocalization
 from slamlib.metrics import pose_error
 from slamlib.models import (
@@ -198,7 +197,7 @@ def test_tiny_noise_last_pose_covariance_equals_the_ekf():
     run = scenario("arena_loop", seed=7, sigma_wheel=1e-4, sigma_range0=1e-4,
                    sigma_range_per_m=0.0, sigma_bearing=1e-5)
     Q, R = np.diag([0.01, 0.01]) ** 2, np.diag([0.05, np.radians(2.0)]) ** 2
-    ekf = ex.slam(run, Q=Q, R=R, gate=None)
+    ekf = runner.slam(run, Q=Q, R=R, gate=None)
     g = graph.smooth(run, "batch", Q=Q, R=R)
     assert g.t[-1] == ekf.t[-1]
     P_e, P_g = ekf.P[-1], g.P[-1]
@@ -214,7 +213,7 @@ def test_tiny_noise_last_pose_covariance_equals_the_ekf():
 def test_no_readings_equals_dead_reckoning(arena):
     blind = dataclasses.replace(arena, camera=CameraRows(*[np.zeros(0)] * 8))
     g = graph.smooth(blind, "batch", max_steps=100, odometry_floor=0.0)
-    dr = ex.dead_reckoning(arena)
+    dr = runner.dead_reckoning(arena)
     assert len(g.t) == 31 and not g.landmark_ids
     k = np.searchsorted(dr.t, g.t)
     np.testing.assert_array_equal(dr.t[k], g.t)

@@ -3,7 +3,7 @@
 import numpy as np
 import pytest
 
-from slamlib import runner as ex
+from slamlib import runner
 from slamlib.ekf import EKFSLAM
 from slamlib.runs import load_run
 
@@ -16,7 +16,7 @@ def run():
 def _by_hand(run, t_stop):
     """The loop written out: predict every encoder event, update every frame before t_stop."""
     sensor = run.sensor()
-    f = EKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), sensor.R(2.0),
+    f = EKFSLAM(run.start_pose, runner.DEFAULT_P0, run.Q(), sensor.R(2.0),
                 wheel_base=run.wheel_base, gate=0.95)
     for ev in run.events():
         if ev.kind == "predict":
@@ -30,7 +30,7 @@ def _by_hand(run, t_stop):
 
 @pytest.mark.parametrize("t_stop", [0.0, 14.7, 20.0, 48.25])
 def test_until_stops_before_the_first_frame_at_or_after_t(run, t_stop):
-    tr = ex.slam(run, until=t_stop)
+    tr = runner.slam(run, until=t_stop)
     ref, ev = _by_hand(run, t_stop)
     p = tr.pending
     assert p is not None and p.t == ev.t >= t_stop - 1e-9
@@ -43,8 +43,8 @@ def test_until_stops_before_the_first_frame_at_or_after_t(run, t_stop):
 
 
 def test_fusing_the_pending_frame_is_the_full_runs_next_update(run):
-    full = ex.slam(run)
-    tr = ex.slam(run, until=20.0)
+    full = runner.slam(run)
+    tr = runner.slam(run, until=20.0)
     rep = tr.filter.update(tr.pending.obs.ids, tr.pending.obs.z, R=tr.pending.R)
     t_full, rep_full = next((t, r) for t, r in full.reports if t >= 20.0 - 1e-9)
     assert t_full == tr.pending.t
@@ -53,9 +53,9 @@ def test_fusing_the_pending_frame_is_the_full_runs_next_update(run):
 
 
 def test_without_until_or_past_the_end_nothing_is_pending(run):
-    assert ex.slam(run, max_time=5.0).pending is None
-    tr = ex.slam(run, until=1e6)
-    assert tr.pending is None and len(tr.reports) == len(ex.slam(run).reports)
+    assert runner.slam(run, max_time=5.0).pending is None
+    tr = runner.slam(run, until=1e6)
+    assert tr.pending is None and len(tr.reports) == len(runner.slam(run).reports)
 
 
 def test_a_q_per_step_is_the_textbook_prediction_with_that_steps_q():
@@ -91,11 +91,12 @@ def test_the_runners_give_each_step_the_runs_own_q(run, monkeypatch):
     # dead_reckoning, one prediction at a time; Q given overrides it
     Qc = np.array([[2e-4, 1e-4], [1e-4, 3e-4]])
     monkeypatch.setattr(type(run), "Q_steps", lambda self, dt: Qc[None] / dt[:, None, None])
-    tr = ex.slam(run, max_time=12.0)
+    tr = runner.slam(run, max_time=12.0)
     sensor = run.sensor()
-    f = EKFSLAM(run.start_pose, ex.DEFAULT_P0, run.Q(), sensor.R(2.0),
+    f = EKFSLAM(run.start_pose, runner.DEFAULT_P0, run.Q(), sensor.R(2.0),
                 wheel_base=run.wheel_base, gate=0.95)
-    d = ex.make_filter(ex.EKFLocalization, run, R=ex.default_R(run, needed=False), landmarks={})
+    d = runner.make_filter(runner.EKFLocalization, run, R=runner.default_R(run, needed=False),
+                           landmarks={})
     for ev in run.events():
         if ev.t > 12.0:
             break
@@ -106,7 +107,7 @@ def test_the_runners_give_each_step_the_runs_own_q(run, monkeypatch):
             f.update(ev.obs.ids, ev.obs.z, R=np.stack([sensor.R(r) for r in ev.obs.z[:, 0]]))
     np.testing.assert_array_equal(tr.filter.x, f.x)
     np.testing.assert_array_equal(tr.filter.P, f.P)
-    dr = ex.dead_reckoning(run, max_time=12.0)
+    dr = runner.dead_reckoning(run, max_time=12.0)
     np.testing.assert_array_equal(dr.filter.P, d.P)
-    same_Q = ex.slam(run, max_time=12.0, Q=run.Q())
+    same_Q = runner.slam(run, max_time=12.0, Q=run.Q())
     assert not np.array_equal(same_Q.filter.P, f.P)

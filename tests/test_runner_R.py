@@ -7,8 +7,7 @@ import copy
 import numpy as np
 import pytest
 
-from slamlib import runner as ex
-from slamlib import sim
+from slamlib import runner, sim
 from slamlib.vision import NoiseModel
 
 
@@ -33,20 +32,20 @@ def _confirmed(run):
     return confirmed_slam(run)
 
 
-@pytest.mark.parametrize("runner", [ex.slam, ex.localization, ex.fej_slam, _delayed_slam,
-                                    _confirmed])
-def test_unknown_sensor_with_readings_raises_saying_what_to_pass(run, runner):
+@pytest.mark.parametrize("run_with", [runner.slam, runner.localization, runner.fej_slam,
+                                      _delayed_slam, _confirmed])
+def test_unknown_sensor_with_readings_raises_saying_what_to_pass(run, run_with):
     r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
     with pytest.raises(ValueError, match=r"R: run .*SomeoneElsesSensor.*pass R="):
-        runner(r)
+        run_with(r)
 
 
 def test_unknown_sensor_with_an_explicit_R_runs_and_uses_it(run):
     r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
     R = np.diag([0.03, 0.01]) ** 2
-    tr = ex.slam(r, R=R)
+    tr = runner.slam(r, R=R)
     assert np.array_equal(tr.filter.R, R)
-    assert np.array_equal(ex.slam(run, R=R).x, tr.x)        # the same as the analytic run with R
+    assert np.array_equal(runner.slam(run, R=R).x, tr.x)   # the same as the analytic run with R
 
 
 def test_camera_runs_take_the_noise_model_they_were_recorded_with(run):
@@ -54,19 +53,19 @@ def test_camera_runs_take_the_noise_model_they_were_recorded_with(run):
           "sigma_range_b": 0.002, "sigma_bearing": 0.0005, "corrected": True}
     r = _with_sensor(run, {"type": "CameraMarkerSensor", "noise_model": nm})
     model = NoiseModel(**nm)
-    assert np.array_equal(ex.default_R(r), model.R(2.0))
-    tr = ex.run_filter(r, ex.make_filter(ex.EKFSLAM, r), until=20.0)
+    assert np.array_equal(runner.default_R(r), model.R(2.0))
+    tr = runner.run_filter(r, runner.make_filter(runner.EKFSLAM, r), until=20.0)
     p = tr.pending
     assert np.array_equal(p.R, np.stack([model.R(rho) for rho in p.obs.z[:, 0]]))
 
 
 def test_dead_reckoning_and_runs_without_readings_need_nodefault_R(run):
     r = _with_sensor(run, {"type": "SomeoneElsesSensor"})
-    assert np.array_equal(ex.dead_reckoning(r).x, ex.dead_reckoning(run).x)
+    assert np.array_equal(runner.dead_reckoning(r).x, runner.dead_reckoning(run).x)
     quiet = sim.scenario("arena_loop", seed=2, max_range=0.21, min_range=0.2)
     quiet = _with_sensor(quiet, {})
     assert len(quiet.camera) == 0
-    assert ex.slam(quiet).filter.n_landmarks == 0
+    assert runner.slam(quiet).filter.n_landmarks == 0
 
 
 def test_the_filter_checks_the_R_the_runner_gives(run):
@@ -75,6 +74,6 @@ def test_the_filter_checks_the_R_the_runner_gives(run):
 
     flat = AnalyticMarkerSensor(sigma_range0=0.0, sigma_range_per_m=0.0)
     r = sim.scenario("arena_loop", seed=2, sensor=flat)
-    filt = ex.make_filter(ex.EKFSLAM, r, R=np.diag([1e-4, 1e-4]))     # a valid default R
+    filt = runner.make_filter(runner.EKFSLAM, r, R=np.diag([1e-4, 1e-4]))     # a valid default R
     with pytest.raises(ValueError, match=r"R\[0\]"):              # the frame's own R: zero
-        ex.run_filter(r, filt)
+        runner.run_filter(r, filt)

@@ -10,8 +10,7 @@
 import numpy as np
 import pytest
 
-from slamlib import runner as ex
-from slamlib import studies
+from slamlib import runner, studies
 from slamlib.course import studies_ch06
 from slamlib.metrics import chi2_band
 from slamlib.models import wrap_angle
@@ -30,7 +29,7 @@ def _toy_trace(rng, T=200, scale=1.0):
     e = np.einsum("tij,tj->ti", np.linalg.cholesky(scale * P), rng.normal(size=(T, 3)))
     x = truth + e
     x[:, 2] = wrap_angle(x[:, 2])
-    return ex.Trace(t=t, kind=np.array(["predict"] * T), x=x, P=P, truth=truth)
+    return runner.Trace(t=t, kind=np.array(["predict"] * T), x=x, P=P, truth=truth)
 
 
 @pytest.mark.parametrize("scale, consistent", [(1.0, True), (2.0, False), (0.5, False)])
@@ -72,11 +71,11 @@ def test_monte_carlo_equals_runs_made_by_hand():
     assert set(study) == {"localization", "slam"}
     s = study["slam"]
     assert s.nees.shape == (2, s.t.size) and s.t[0] == 2.0 and np.all(np.diff(s.t) == 2.0)
-    tr = ex.slam(scenario("arena_loop", seed=6))
+    tr = runner.slam(scenario("arena_loop", seed=6))
     for j, g in enumerate(s.t):
         k = np.flatnonzero(tr.t <= g + 1e-9)[-1]
         assert s.nees[1, j] == pytest.approx(tr.nees[k], rel=1e-12)
-    assert s.ate[1] == pytest.approx(ex.ate(tr.x, tr.truth).position)
+    assert s.ate[1] == pytest.approx(runner.ate(tr.x, tr.truth).position)
     assert len(s.reobservations) == 2 and study["localization"].reobservations == ()
     assert np.allclose(s.average(), s.nees.mean(axis=0))
     assert s.band() == chi2_band(3, 2) and s.band(heading=True) == chi2_band(1, 2)
@@ -95,18 +94,18 @@ def test_density_sweep_equals_a_run_made_by_hand():
     run = simulate(world, WaypointController(wp[1:]), sensor=AnalyticMarkerSensor(), seed=3,
                    params=KobukiParams(sigma_wheel=0.02), start_pose=[wp[0, 0], wp[0, 1],
                                                                        -np.pi / 2])
-    tr = ex.slam(run)
+    tr = runner.slam(run)
     m = tr.metrics(world)
     assert (r.count, r.seed, r.landmarks) == (6, 3, int(m["landmarks"]))
     assert r.ate == pytest.approx(m["ate_xy"]) and r.final_error == pytest.approx(
         m["final_xy_error"])
     if r.landmarks:
-        assert r.map_rmse == pytest.approx(ex.map_error(tr.filter, world)[0])
+        assert r.map_rmse == pytest.approx(runner.map_error(tr.filter, world)[0])
     assert len(r.placements) == r.landmarks
 
 
 def test_reobservation_of_the_recorded_run():
-    tr = ex.slam(scenario("arena_loop"))
+    tr = runner.slam(scenario("arena_loop"))
     r = studies.reobservation(tr)
     assert r.marker_id == tr.filter.landmark_ids[0]
     # by hand: the readings of that id, their longest gap
@@ -125,7 +124,7 @@ def test_reobservation_of_the_recorded_run():
 def test_reobservation_rejected_when_the_filter_underestimates_the_drift():
     # wheels slip 4x more than the filter's Q says: the true marker fails the gate
     run = scenario("arena_loop", seed=1, sigma_wheel=0.08)
-    tr = ex.slam(run, Q=scenario("arena_loop", seed=1).Q())
+    tr = runner.slam(run, Q=scenario("arena_loop", seed=1).Q())
     r = studies.reobservation(tr)
     assert r.rejected and r.d2 > r.threshold
     assert not r.closed and r.n_rejected > 50
@@ -135,16 +134,16 @@ def test_reobservation_rejected_when_the_filter_underestimates_the_drift():
 def test_landmark_placement_equals_the_filter_when_added():
     run = scenario("arena_loop")
     world = run.world()
-    tr = ex.slam(run)
+    tr = runner.slam(run)
     rows = studies_ch06.landmark_placement(tr, world)
     assert [p.marker_id for p in rows] == tr.filter.landmark_ids
     true = world.landmarks()
     for p in rows[3:6]:
-        early = ex.slam(run, max_time=p.t_added)       # stops right after that frame
+        early = runner.slam(run, max_time=p.t_added)       # stops right after that frame
         got = early.filter.landmark(p.marker_id)
         assert p.error_added == pytest.approx(np.hypot(*(got - true[p.marker_id])), abs=1e-12)
         assert p.pose_error == pytest.approx(np.hypot(*early.error[-1, :2]), abs=1e-12)
-    _, final = ex.map_error(tr.filter, world)
+    _, final = runner.map_error(tr.filter, world)
     assert all(p.error_final == pytest.approx(final[p.marker_id]) for p in rows)
 
 

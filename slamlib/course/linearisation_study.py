@@ -26,7 +26,7 @@ from collections.abc import Iterable
 
 import numpy as np
 
-from .. import runner as ex
+from .. import runner
 from ..ekf import LinearisedEKFSLAM
 from ..studies import map_jobs, reobservation, sample_trace
 from .stored import load_stored
@@ -88,7 +88,7 @@ def run_seed(job: tuple) -> dict:
 
     sigma, seed, methods = job
     run = scenario(STUDY["scenario"], seed=int(seed), sigma_wheel=sigma)
-    truth = {"truth": ex.truth_function(run), "landmarks": run.world().landmarks(),
+    truth = {"truth": runner.truth_function(run), "landmarks": run.world().landmarks(),
              "t0": float(run.enc_t[0])}
     step, t_end = STUDY["step"], STUDY["t_end"]
     grid = np.arange(1, int(round(t_end / step)) + 1) * step
@@ -96,8 +96,8 @@ def run_seed(job: tuple) -> dict:
     out = {}
     for m in methods:
         links, gate = method_links(m)
-        filt = ex.make_filter(LinearisedEKFSLAM, run, gate=gate, **links, **truth)
-        tr = ex.run_filter(run, filt)
+        filt = runner.make_filter(LinearisedEKFSLAM, run, gate=gate, **links, **truth)
+        tr = runner.run_filter(run, filt)
         nees, heading = sample_trace(tr, grid)
         gated = rejected = 0
         for _, rep in tr.reports:
