@@ -166,6 +166,14 @@ def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
         a1.plot(tr.t - tr.t[0], e, color=c, lw=1, label=f"{name}: error")
         a1.plot(tr.t - tr.t[0], 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), color=c, lw=1.0,
                 ls=":", label=f"{name}: its own 2 sigma")
+    # limits from the world, Vicon's path and the filters' paths together: no path is cut off
+    paths = np.vstack([log.truth[:, :2]] + [tr.x[:, :2] for tr in traces.values()])
+    xmin, xmax, ymin, ymax = log.world().bounds
+    m = 0.2
+    xmin, xmax = min(xmin, paths[:, 0].min()) - m, max(xmax, paths[:, 0].max()) + m
+    ymin, ymax = min(ymin, paths[:, 1].min()) - m, max(ymax, paths[:, 1].max()) + m
+    a0.set_xlim(xmin, xmax)
+    a0.set_ylim(ymax, ymin)                      # y downwards, as world_axes sets it
     a0.legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.1), ncol=2)
     a1.set_xlabel("time (s)")
     a1.set_ylabel("position error (m)")

@@ -11,7 +11,7 @@ import numpy as np
 from .plots import DPI, plot_world, world_axes
 
 __all__ = ["plot_factor_graph", "plot_sparsity", "plot_nees_study", "plot_cost_per_step",
-           "plot_errors_at"]
+           "plot_errors_at", "plot_error_and_sigma"]
 
 _POSE = {"color": "tab:blue"}
 _LM = {"color": "tab:purple"}
@@ -171,4 +171,33 @@ def plot_errors_at(axes, traces: dict, t, truth_at, colors=None, sigma_of=None, 
     for ax in axes:
         ax.grid(True, lw=0.4, alpha=0.5)
     a0.legend(fontsize=8, loc="upper right")
+    return axes
+
+
+def plot_error_and_sigma(axes, traces: dict, colors=None):
+    """Position error (top) and heading error (bottom) of each estimate against time, each
+    with its own 2-sigma bound dotted (chapter 11, Fig. 3).
+
+    ``traces``: legend entry -> Trace (``t``, ``x``, ``P``, ``truth``); ``colors``: entry ->
+    colour. Where an error leaves its own band, that estimate is overconfident there.
+    """
+    a0, a1 = axes
+    colors = colors or {}
+    for name, tr in traces.items():
+        t = tr.t - tr.t[0]
+        e = tr.error
+        c = colors.get(name)
+        a0.plot(t, np.hypot(*e[:, :2].T), lw=1.1, color=c, label=f"{name}: error")
+        a0.plot(t, 2 * np.sqrt(tr.P[:, 0, 0] + tr.P[:, 1, 1]), lw=0.9, ls=":", color=c,
+                label=f"{name}: its own 2 sigma")
+        s = 2 * np.degrees(np.sqrt(tr.P[:, 2, 2]))
+        a1.plot(t, np.degrees(e[:, 2]), lw=1.1, color=c)
+        a1.plot(t, s, lw=0.9, ls=":", color=c)
+        a1.plot(t, -s, lw=0.9, ls=":", color=c)
+    a0.set_ylabel("position error (m)")
+    a1.set_ylabel("heading error (deg)")
+    a1.set_xlabel("time (s)")
+    for ax in axes:
+        ax.grid(True, lw=0.4, alpha=0.5)
+    a0.legend(fontsize=8, loc="upper left", ncol=2)
     return axes
