@@ -15,10 +15,13 @@ distance of their positions, ``(m2 - m1)^T (C1 + C2)^-1 (m2 - m1)``, is below
 the pose's error, so the test is somewhat lenient.)
 
 Readings of mapped ids go through :meth:`EKFSLAM.update` unchanged (gate
-against the prior, one joint update); a confirmed id is then added by
-:meth:`EKFSLAM.update` from the updated pose and the confirming reading, as
-plain EKF SLAM would have added it. A held reading gets the status
-``"candidate"``.
+against the prior, one joint update). After the joint update
+``EKFSLAM._update_ids`` hands the readings of unmapped ids to the hook
+:meth:`ConfirmedSLAM._admit`, which tests them against the candidates and
+passes the confirmed ones to ``EKFSLAM._admit``: they are added from the
+updated pose, as plain EKF SLAM would have added them (no second update). A
+held reading gets the status ``"candidate"``; :meth:`ConfirmedSLAM.update`
+only counts the frames.
 
 Without ids (``association="nn"`` or ``"jcbb"``, ``update(None, z)``, chapter
 09) the same idea keeps clutter out of the map: a reading outside every

@@ -23,8 +23,8 @@ PRINTED = {
            ekf.stacked_jacobian, ekf.innovation_covariance, ekf.gate, ekf.joint_update],
     "04": [models.inverse_observe, models.inverse_observation_jacobians, ekf.augment,
            ekf.landmark_covariance, ekf.predict],
-    "05": [ekf.EKFLocalization.predict, ekf.EKFLocalization._update_ids,
-           ekf.EKFLocalization._gate_ids, ekf.joint_update, ekf.augment, ConfirmedSLAM.update],
+    "05": [ekf.EKFSLAM.predict, ekf.EKFSLAM._update_ids, ekf.EKFSLAM._gate_ids,
+           ConfirmedSLAM.update, ConfirmedSLAM._admit],
     "06": [ekf.LinearisedEKFSLAM.jacobians, ekf.LinearisedEKFSLAM._observation],
     "09": [association.jcbb, association.solve_lower, association.nearest_neighbour],
 }

@@ -105,7 +105,8 @@ def check_inverse_observation_jacobians(fn, n_points: int = 6, seed: int = 4,
             J2_arr = np.asarray(J2, dtype=float) if np.shape(J2) == (2, 2) else None
             if J2_arr is not None and compare_jacobians("J2^T", J2_arr.T, J2_ref).ok:
                 hints.append("your J2 is transposed: its COLUMNS must be d/d rho and d/d beta "
-                             "(the report stacks them as rows, [d/d rho, d/d theta]^T).")
+                             "(the report stacks them as rows, [d/d rho, d/d ^B theta]^T, "
+                             "^B theta = beta).")
             else:
                 for r, c, g, e in c2.wrong[:2]:
                     what, formula = J2_ENTRIES[r, c]

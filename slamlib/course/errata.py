@@ -110,8 +110,8 @@ def printed_J1(pose, z):
 
 
 def printed_J2(pose, z):
-    """Report V.B, J2 = [d/d rho  d/d theta]^T as printed: the transpose puts the
-    derivatives in rows instead of columns."""
+    """Report V.B, J2 = [d/d rho  d/d ^B theta]^T as printed (^B theta: the bearing beta):
+    the transpose puts the derivatives in rows instead of columns."""
     rho, a = z[0], z[1] + pose[2]
     d_rho = np.array([np.cos(a), np.sin(a)])
     sb, cb, sn, cn = np.sin(z[1]), np.cos(z[1]), np.sin(pose[2]), np.cos(pose[2])
@@ -357,8 +357,8 @@ ERRATA: tuple[Erratum, ...] = (
             "J1[1,2] = ^N x cos(theta) - ^B y sin(theta)",
             "J1[1,2] = ^B x cos(theta) - ^B y sin(theta)", _check_J1),
     Erratum("J2 transposed", "V.B", "04", "layout",
-            "J2 = [d/d rho, d/d theta]^T (derivatives as rows)",
-            "J2 = [d/d rho, d/d theta] (derivatives as columns)", _check_J2),
+            "J2 = [d/d rho, d/d ^B theta]^T (derivatives as rows; ^B theta is the bearing beta)",
+            "J2 = [d/d rho, d/d beta] (derivatives as columns)", _check_J2),
     Erratum("Mahalanobis distance", "V.C eq. (6)", "05", "formula",
             "D^2 = (y - h)^T S^-1 (y - h) with y = z - h already",
             "D^2 = y^T S^-1 y", _check_mahalanobis),
