@@ -193,6 +193,8 @@ def long_equations_broken(md: str) -> str:
 def _fold(cell, what: str) -> None:
     """Fold a cell (code: with its outputs) behind a button that names ``what`` it hides."""
     if cell.cell_type == "markdown":
+        if cell.source.lstrip().startswith("<details"):   # folded in the notebook already
+            return
         cell.source = (f"<details class=\"course-{what}\">\n<summary>Show {what}</summary>\n\n"
                        f"{cell.source}\n\n</details>")
         return
@@ -295,8 +297,10 @@ def solutions_page(notebooks: list[tuple[str, nbformat.NotebookNode]]) -> str:
         for c in cells:
             if c.cell_type == "code":
                 parts.append(f"```python\n{c.source.rstrip()}\n```\n")
-            else:
-                parts.append(re.sub(r"^(#+) ", r"#\1## ", c.source.rstrip(), flags=re.M) + "\n")
+            else:   # an answer, without the fold it has in the chapter
+                text = re.sub(r"^\s*<details\b[^>]*>\s*<summary>.*?</summary>|</details>\s*$", "",
+                              c.source.strip(), flags=re.S).strip()
+                parts.append(re.sub(r"^(#+) ", r"#\1## ", text, flags=re.M) + "\n")
     return "\n".join(parts)
 
 

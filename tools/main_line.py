@@ -2,10 +2,12 @@
 
     python tools/main_line.py [notebooks/*.ipynb]
 
-The main line is every markdown cell that is not tagged ``evidence``, ``answer`` or
-``solution``, without the inside of its ``<details>...</details>`` blocks (their
-``<summary>`` line stays: it is read folded). Of its prose we count the words and the
-numbers (a word with a digit in it). Headings, link texts and inline code are read, so
+The main line is every markdown cell that is not tagged ``evidence``, without the inside of
+its ``<details>...</details>`` blocks (their ``<summary>`` line stays: it is read folded).
+A cell tagged ``answer`` counts unless its text is inside ``<details>``: the tag folds it in
+JupyterLab and in the web edition, but not in every viewer a student may open the notebook
+in. Of its prose we count the words (a run of characters between spaces that holds a letter
+or a digit) and the numbers (a word with a digit in it). Headings, link texts and inline code are read, so
 they count; math (``$...$``, ``$$...$$``), fenced code, markdown tables, HTML tags and
 link targets are not prose.
 The quality bar (COURSE.md, "Teach first"): at most 3,000 words and at most 5 numbers
@@ -22,7 +24,7 @@ from pathlib import Path
 
 MAX_WORDS = 3000
 MAX_NUMBERS_PER_100 = 5.0
-FOLDED_TAGS = {"evidence", "answer", "solution"}
+FOLDED_TAGS = {"evidence"}
 
 _DETAILS = re.compile(r"<details\b.*?</details>", re.S | re.I)
 _SUMMARY = re.compile(r"<summary\b[^>]*>(.*?)</summary>", re.S | re.I)
@@ -36,7 +38,8 @@ _STRIP = [
     re.compile(r"<[^>\n]+>"),                               # HTML tags
     re.compile(r"\]\([^)\s]*\)"),                           # link targets
 ]
-_WORD = re.compile(r"[A-Za-z0-9][A-Za-z0-9'’.,%/+-]*")
+_WORD = re.compile(r"\S+")
+_ALNUM = re.compile(r"[^\W_]")
 _DIGIT = re.compile(r"\d")
 
 
@@ -81,8 +84,7 @@ def main_line_text(notebook: dict) -> str:
 def measure(path: str | Path) -> MainLine:
     """Words and numbers of a notebook's main line."""
     text = main_line_text(json.loads(Path(path).read_text(encoding="utf-8")))
-    words = [w.strip(".,") for w in _WORD.findall(text)]
-    words = [w for w in words if w]
+    words = [w for w in _WORD.findall(text) if _ALNUM.search(w)]
     return MainLine(str(path), len(words), sum(bool(_DIGIT.search(w)) for w in words))
 
 
