@@ -25,6 +25,7 @@ html_theme = "sphinx_book_theme"
 html_title = project
 html_static_path: list[str] = []     # tools/build_book.py passes _static (CSS, MathJax) with -D
 html_css_files = ["course.css"]
+html_js_files = ["course.js"]             # inline formulas: a scroll box only where needed
 mathjax_path = "mathjax/es5/tex-chtml.js"
 mathjax3_config = {"tex": {"inlineMath": [["\\(", "\\)"]], "displayMath": [["\\[", "\\]"]]}}
 html_theme_options = {

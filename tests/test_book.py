@@ -229,6 +229,12 @@ for (const el of main.querySelectorAll('div.cell_output div, div.cell_output pre
     bad.push('cut: ' + name(el));
   }
 }
+for (const el of main.querySelectorAll('span.math')) {   // a scroll bar only where it is needed:
+  const column = el.parentElement.closest('p, li, td, th, dd, dt, div, blockquote, section');
+  if (scrolls(el) && el.scrollWidth > el.clientWidth + 1 && el.scrollWidth <= column.clientWidth) {
+    bad.push('a scroll bar on an inline formula narrower than its column: ' + name(el));
+  }   // (a formula narrower than its paragraph fits on a line of its own)
+}
 if (document.documentElement.scrollWidth > window.innerWidth + 1) {
   bad.push('the page scrolls sideways');
 }
