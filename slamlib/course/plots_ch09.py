@@ -166,10 +166,15 @@ def plot_drift_study(cols: dict, *, seed: int = 1, seed_label: str | None = None
                 label=seed_label or f"seed {seed}")
         top = max(nn["wrong"].max(), jc["wrong"].max()) * 1.3 + 1
         ax.plot([0, top], [0, top], "k--", lw=0.8, label="equal")
-        ax.set_xscale("symlog", linthresh=1)
-        ax.set_yscale("symlog", linthresh=1)
-        ax.set_xlim(-0.3, top)
-        ax.set_ylim(-0.3, top)
+        # counts are integers: the linear part [0, 1] is squeezed to a fifth of a decade, so
+        # the zero row sits just below the row of 1 with no empty band between them
+        ax.set_xscale("symlog", linthresh=1, linscale=0.2)
+        ax.set_yscale("symlog", linthresh=1, linscale=0.2)
+        ticks = [0] + [10 ** e for e in range(int(np.log10(top)) + 1)]
+        for axis in (ax.xaxis, ax.yaxis):
+            axis.set_ticks(ticks, [str(t) for t in ticks])
+        ax.set_xlim(-0.5, top)
+        ax.set_ylim(-0.5, top)
         ax.set_xlabel("NN: wrong associations in the run")
         ax.set_ylabel("JCBB: wrong associations in the run")
         ax.set_title(f"gate {gate:g}", fontsize=10)
