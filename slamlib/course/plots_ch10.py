@@ -146,9 +146,13 @@ def plot_reading_residuals(axes, res, fit, textbook=(0.15, 0.03)):
     a1.legend(fontsize=8)
     return axes
 
-def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
+def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue"), legend_ax=None):
     """Top view of Vicon and SLAM estimates (squares: surveyed landmarks, +: each filter's
-    mapped ones), and the position error against time with each filter's own 2 sigma."""
+    mapped ones), and the position error against time with each filter's own 2 sigma.
+
+    ``legend_ax``: an axes (turned off) to hold the top view's legend, e.g. the cell below
+    the top view when the error plot spans both rows; without it the legend hangs below
+    the top view."""
 
     a0, a1 = axes
     plots.world_axes(a0, log.world(), margin=0.2)
@@ -174,7 +178,11 @@ def plot_slam_comparison(axes, log, traces, colors=("tab:red", "tab:blue")):
     ymin, ymax = min(ymin, paths[:, 1].min()) - m, max(ymax, paths[:, 1].max()) + m
     a0.set_xlim(xmin, xmax)
     a0.set_ylim(ymax, ymin)                      # y downwards, as world_axes sets it
-    a0.legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.1), ncol=2)
+    if legend_ax is None:
+        a0.legend(fontsize=8, loc="upper left", bbox_to_anchor=(0.0, -0.1), ncol=2)
+    else:
+        legend_ax.axis("off")
+        legend_ax.legend(*a0.get_legend_handles_labels(), fontsize=8, loc="upper center")
     a1.set_xlabel("time (s)")
     a1.set_ylabel("position error (m)")
     a1.legend(fontsize=8)

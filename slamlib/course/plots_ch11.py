@@ -28,10 +28,22 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     """
     if not ax.yaxis_inverted():
         world_axes(ax, world)
-    if world is not None:
-        plot_world(ax, world, facing=False, color="0.6", label="markers (truth)")
     X = trace.x
     L = trace.landmarks
+    if world is not None:
+        # a mapped marker is named once, by its landmark variable's label (l41 is marker 41):
+        # its grey id would sit on the square and the factor lines beside it
+        plot_world(ax, world, ids=False, facing=False, color="0.6", label="markers (truth)")
+        xy = world.positions
+        for i, m in enumerate(world.markers):
+            if int(m.id) in L:
+                continue
+            d = np.hypot(xy[:, 0] - m.x, xy[:, 1] - m.y)
+            d[i] = np.inf
+            left = bool(np.any((d < 0.3) & (xy[:, 0] > m.x)))
+            ax.annotate(str(m.id), (m.x, m.y), textcoords="offset points",
+                        xytext=(-4, 4) if left else (4, 4), ha="right" if left else "left",
+                        fontsize=8, color="0.6")
     first = True
     for k, (ids, _, _) in enumerate(trace.problem.readings):
         for m in ids:
@@ -48,8 +60,9 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     ax.plot([X[0, 0] - 0.12, X[0, 0]], [X[0, 1], X[0, 1]], "k-", lw=0.8, zorder=3)
     ax.plot(X[:, 0], X[:, 1], "o", ms=5, zorder=5, label=f"pose variables ({len(X)})", **_POSE)
     pts = np.array(list(L.values())).reshape(-1, 2)
+    m0 = min(L) if L else 0
     ax.plot(pts[:, 0], pts[:, 1], "s", ms=8, zorder=5,
-            label=f"landmark variables ({len(L)})", **_LM)
+            label=f"landmark variables ({len(L)}):\nl{m0} is marker {m0}", **_LM)
     for m, p in L.items():
         # a landmark just to the right would hide the label: put it on the left
         left = any(0.0 < q[0] - p[0] < 0.4 and abs(q[1] - p[1]) < 0.3
