@@ -37,11 +37,15 @@ def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height
     top, side = axes
     # top view (x_B, y_B)
     top.add_patch(plt.Circle((0, 0), robot_radius, fc="0.9", ec="0.4"))
-    _axis_arrow(top, (0, 0), (1, 0), "$x_B$", "tab:red")
+    _axis_arrow(top, (0, 0), (1, 0), "", "tab:red")
+    top.annotate("$x_B$", (0.05, 0), textcoords="offset points", xytext=(0, -3), ha="center",
+                 va="top", color="tab:red", fontsize=11)   # below its arrow, clear of the camera
     _axis_arrow(top, (0, 0), (0, 1), "$y_B$", "tab:green")
     top.plot(0, 0, "kx")
     top.annotate("$z_B$ into the page", (0, 0), textcoords="offset points", xytext=(-4, 8),
                  ha="right", fontsize=9)
+    top.add_patch(plt.Rectangle((t[0] - 0.045, t[1] - 0.02), 0.045, 0.04, fc="0.75", ec="0.4",
+                                lw=0.8))                    # the camera box, lens at C
     _axis_arrow(top, t[:2], R[:2, 2], "$z_C$", "tab:blue", 0.08)
     _axis_arrow(top, t[:2], R[:2, 0], "$x_C$", "tab:purple", 0.08)
     top.plot(*t[:2], "o", color="tab:blue", ms=5)
@@ -58,8 +62,18 @@ def plot_camera_mount(camera=None, *, robot_radius: float = 0.175, marker_height
     side.axhline(h, color="0.3", lw=2)
     side.annotate("floor", (0.42, h), textcoords="offset points", xytext=(-2, 3), ha="right",
                   fontsize=9)
-    side.add_patch(plt.Rectangle((-robot_radius, h - 0.11), 2 * robot_radius, 0.1,
+    body_top = h - 0.11
+    side.add_patch(plt.Rectangle((-robot_radius, body_top), 2 * robot_radius, 0.1,
                                  fc="0.9", ec="0.4"))
+    # the camera: a box whose lens (front face) is at C's origin, on a mast standing on the body
+    box_l, box_h, mast_w = 0.045, 0.03, 0.012
+    box_bottom = t[2] + box_h / 2                  # z down: the box's underside
+    side.add_patch(plt.Rectangle((t[0] - box_l / 2 - mast_w / 2, box_bottom), mast_w,
+                                 body_top - box_bottom, fc="0.75", ec="0.4", lw=0.8))
+    side.add_patch(plt.Rectangle((t[0] - box_l, t[2] - box_h / 2), box_l, box_h,
+                                 fc="0.75", ec="0.4", lw=0.8))
+    side.annotate("camera", (t[0] - box_l / 2, t[2] - box_h / 2), textcoords="offset points",
+                  xytext=(0, 2), ha="center", va="bottom", fontsize=9, color="0.3")
     _axis_arrow(side, (0, 0), (1, 0), "$x_B$", "tab:red")
     _axis_arrow(side, (0, 0), (0, 1), "$z_B$", "tab:green")
     _axis_arrow(side, t[[0, 2]], R[[0, 2], 2], "$z_C$", "tab:blue", 0.08)

@@ -10,7 +10,8 @@ from matplotlib.ticker import FuncFormatter, Locator, LogLocator, NullFormatter
 
 from .plots import DPI
 
-__all__ = ["plot_nees_averages", "plot_density_sweep", "plot_closure_against_nees"]
+__all__ = ["plot_nees_averages", "plot_density_sweep", "plot_closure_against_nees",
+           "keep_ids_clear"]
 
 
 class _PlainLogLocator(Locator):
@@ -175,3 +176,36 @@ def plot_closure_against_nees(stored: dict, settings):
               frameon=False)                  # under the axes: no dot hidden
     plt.tight_layout()
     return fig
+
+
+def keep_ids_clear(ax, world, landmarks, radius: float = 0.45):
+    """Move a marker's id (written by :func:`plots.plot_world`, up and to the right of its star)
+    to the corner of its star farthest from any mapped landmark (``landmarks``: id -> (x, y),
+    drawn as a plus sign) or other star within ``radius`` (m), so that a landmark mapped
+    close to its marker does not cover the id. Ids with nothing that close stay where they are."""
+    stars = {int(m.id): np.array([m.x, m.y], dtype=float) for m in world.markers}
+    others = [np.asarray(v, dtype=float)[:2] for v in landmarks.values()] + list(stars.values())
+    flip = -1.0 if ax.yaxis_inverted() else 1.0            # data y -> screen y
+    corners = (((4, 4), "left", "bottom"), ((-4, 4), "right", "bottom"),
+               ((4, -4), "left", "top"), ((-4, -4), "right", "top"))
+    for text in ax.texts:
+        try:
+            pos = stars[int(text.get_text())]
+        except (KeyError, ValueError):
+            continue
+        if not np.allclose(getattr(text, "xy", (np.nan, np.nan)), pos):
+            continue
+        near = [o - pos for o in others if 0.0 < np.hypot(*(o - pos)) < radius]
+        if not near:
+            continue
+        dirs = [np.array([d[0], flip * d[1]]) / np.hypot(*d) for d in near]
+
+        def crowding(corner):
+            v = np.array(corner[0], dtype=float) / np.hypot(*corner[0])
+            return sum(float(v @ d) for d in dirs)
+
+        offset, ha, va = min(corners, key=crowding)
+        text.set_position(offset)
+        text.set_ha(ha)
+        text.set_va(va)
+    return ax
