@@ -72,3 +72,25 @@ def test_plot_nees_averages_without_a_legend():
     fig, axes = plots_ch06.plot_nees_averages(_curves(), 100, legend="none")
     assert axes[0].get_legend() is None and not fig.legends
     plt.close(fig)
+
+
+
+def test_a_marker_id_moves_away_from_a_landmark_mapped_close_to_it():
+    from types import SimpleNamespace
+
+    from slamlib.course import plots
+
+    markers = [SimpleNamespace(id=28, x=3.0, y=2.7, yaw=0.0),
+               SimpleNamespace(id=87, x=0.8, y=2.7, yaw=0.0)]
+    world = SimpleNamespace(markers=markers, positions=np.array([[3.0, 2.7], [0.8, 2.7]]))
+    fig, ax = plt.subplots()
+    plots.plot_world(ax, world, facing=False)
+    ax.invert_yaxis()                                   # the course's z-down top view
+    # marker 28's landmark mapped 0.2 m to its right and 0.2 m up the screen (y points down):
+    # on the default corner (up-right) the plus sign would cover the id
+    plots_ch06.keep_ids_clear(ax, world, {28: (3.2, 2.5)})
+    label = {t.get_text(): t for t in ax.texts}
+    assert tuple(label["28"].get_position()) == (-4, -4)    # the corner away from it: down-left
+    assert (label["28"].get_ha(), label["28"].get_va()) == ("right", "top")
+    assert tuple(label["87"].get_position()) == (4, 4)      # nothing near marker 87: it stays
+    plt.close(fig)

@@ -7,9 +7,9 @@ its ``<details>...</details>`` blocks (their ``<summary>`` line stays: it is rea
 A cell tagged ``answer`` counts unless its text is inside ``<details>``: the tag folds it in
 JupyterLab and in the web edition, but not in every viewer a student may open the notebook
 in. Of its prose we count the words (a run of characters between spaces that holds a letter
-or a digit) and the numbers (a word with a digit in it). Headings, link texts and inline code are read, so
-they count; math (``$...$``, ``$$...$$``), fenced code, markdown tables, HTML tags and
-link targets are not prose.
+or a digit) and the numbers (a word with a digit in it). Headings, link texts and inline
+code are read, so they count; math (``$...$``, ``$$...$$``), fenced code, markdown tables,
+HTML tags and link targets are not prose.
 The quality bar (COURSE.md, "Teach first"): at most 3,000 words and at most 5 numbers
 per 100 words.
 """

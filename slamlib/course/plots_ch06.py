@@ -178,6 +178,12 @@ def plot_closure_against_nees(stored: dict, settings):
     return fig
 
 
+def _crowding(offset, dirs) -> float:
+    """How much a label's corner ``offset`` points towards the directions ``dirs``."""
+    v = np.array(offset, dtype=float) / np.hypot(*offset)
+    return sum(float(v @ d) for d in dirs)
+
+
 def keep_ids_clear(ax, world, landmarks, radius: float = 0.45):
     """Move a marker's id (written by :func:`plots.plot_world`, up and to the right of its star)
     to the corner of its star farthest from any mapped landmark (``landmarks``: id -> (x, y),
@@ -200,11 +206,7 @@ def keep_ids_clear(ax, world, landmarks, radius: float = 0.45):
             continue
         dirs = [np.array([d[0], flip * d[1]]) / np.hypot(*d) for d in near]
 
-        def crowding(corner):
-            v = np.array(corner[0], dtype=float) / np.hypot(*corner[0])
-            return sum(float(v @ d) for d in dirs)
-
-        offset, ha, va = min(corners, key=crowding)
+        offset, ha, va = min(corners, key=lambda c, dirs=dirs: _crowding(c[0], dirs))
         text.set_position(offset)
         text.set_ha(ha)
         text.set_va(va)
