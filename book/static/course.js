@@ -1,7 +1,8 @@
 // An inline formula wider than its column scrolls inside its own box (course.css,
 // span.math.course-wide); every other one stays inline, without the scroll bar that the
 // few pixels its glyphs overhang MathJax's box would otherwise show (a classic scroll bar,
-// as on Windows and Linux). Marked once MathJax has typeset the page, and again on resize.
+// as on Windows and Linux). Marked once MathJax has typeset the page, again on resize and
+// when a fold opens (closed, its formulas have no width).
 (function () {
   function mark() {
     document.querySelectorAll("span.math").forEach(function (s) {
@@ -19,4 +20,6 @@
   }
   window.addEventListener("load", whenTypeset);
   window.addEventListener("resize", mark);
+  document.addEventListener("toggle", mark, true);   // a fold opened: its formulas measured
+
 })();
