@@ -193,7 +193,8 @@ def long_equations_broken(md: str) -> str:
 def _fold(cell, what: str) -> None:
     """Fold a cell (code: with its outputs) behind a button that names ``what`` it hides."""
     if cell.cell_type == "markdown":
-        if cell.source.lstrip().startswith("<details"):   # folded in the notebook already
+        if cell.source.lstrip().startswith("<details>"):   # folded in the notebook already
+            cell.source = cell.source.replace("<details>", f'<details class="course-{what}">', 1)
             return
         cell.source = (f"<details class=\"course-{what}\">\n<summary>Show {what}</summary>\n\n"
                        f"{cell.source}\n\n</details>")

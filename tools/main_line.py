@@ -4,7 +4,9 @@
 
 The main line is every markdown cell that is not tagged ``evidence``, without the inside of
 its ``<details>...</details>`` blocks (their ``<summary>`` line stays: it is read folded).
-A cell tagged ``answer`` counts unless its text is inside ``<details>``: the tag folds it in
+Only a bare ``<details>`` tag is a fold: the end-of-session count reads one with attributes
+(``<details class="...">``) as prose, so the chapters write it bare (the web edition adds its
+class). A cell tagged ``answer`` counts unless its text is inside ``<details>``: the tag folds it in
 JupyterLab and in the web edition, but not in every viewer a student may open the notebook
 in. Of its prose we count the words (a run of characters between spaces that holds a letter
 or a digit) and the numbers (a word with a digit in it). Headings, link texts and inline
@@ -26,7 +28,7 @@ MAX_WORDS = 3000
 MAX_NUMBERS_PER_100 = 5.0
 FOLDED_TAGS = {"evidence"}
 
-_DETAILS = re.compile(r"<details\b.*?</details>", re.S | re.I)
+_DETAILS = re.compile(r"<details>.*?</details>", re.S | re.I)   # a bare tag (see the docstring)
 _SUMMARY = re.compile(r"<summary\b[^>]*>(.*?)</summary>", re.S | re.I)
 _STRIP = [
     re.compile(r"```.*?```", re.S),                         # fenced code
