@@ -94,3 +94,16 @@ def test_a_marker_id_moves_away_from_a_landmark_mapped_close_to_it():
     assert (label["28"].get_ha(), label["28"].get_va()) == ("right", "top")
     assert tuple(label["87"].get_position()) == (4, 4)      # nothing near marker 87: it stays
     plt.close(fig)
+
+
+def test_plot_world_writes_no_id_for_a_skipped_marker():
+    from types import SimpleNamespace
+
+    from slamlib.course import plots
+
+    markers = [SimpleNamespace(id=i, x=float(i), y=0.0, yaw=0.0) for i in (3, 5, 8)]
+    world = SimpleNamespace(markers=markers, positions=np.array([[m.x, m.y] for m in markers]))
+    fig, ax = plt.subplots()
+    plots.plot_world(ax, world, facing=False, skip_ids={5})
+    assert sorted(t.get_text() for t in ax.texts) == ["3", "8"]
+    plt.close(fig)

@@ -21,5 +21,4 @@
   window.addEventListener("load", whenTypeset);
   window.addEventListener("resize", mark);
   document.addEventListener("toggle", mark, true);   // a fold opened: its formulas measured
-
 })();

@@ -65,8 +65,10 @@ def world_axes(ax=None, world=None, *, margin: float = 0.3, title: str | None = 
 
 def plot_world(ax, world, *, ids: bool = True, facing: bool = True, color: str = "k",
                label: str | None = "markers (truth)", facing_length: float = 0.25,
-               label_spread: float = 0.3):
+               label_spread: float = 0.3, skip_ids=()):
     """Draw the markers as stars, with their ids and (optionally) their facing direction.
+
+    ``skip_ids``: markers whose id is not written (e.g. named by a label of their own).
 
     An id is written up and to the right of its star, except when another marker
     lies within ``label_spread`` (m) to its right: then it goes to the left, so
@@ -82,6 +84,8 @@ def plot_world(ax, world, *, ids: bool = True, facing: bool = True, color: str =
     if ids:
         xy = np.array([[m.x, m.y] for m in world.markers], dtype=float).reshape(-1, 2)
         for i, m in enumerate(world.markers):
+            if int(m.id) in skip_ids:
+                continue
             d = np.hypot(xy[:, 0] - m.x, xy[:, 1] - m.y)
             d[i] = np.inf
             close = (d < label_spread) & ((xy[:, 0] > m.x)

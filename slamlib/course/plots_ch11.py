@@ -33,17 +33,8 @@ def plot_factor_graph(ax, trace, world=None, *, title: str | None = None):
     if world is not None:
         # a mapped marker is named once, by its landmark variable's label (l41 is marker 41):
         # its grey id would sit on the square and the factor lines beside it
-        plot_world(ax, world, ids=False, facing=False, color="0.6", label="markers (truth)")
-        xy = world.positions
-        for i, m in enumerate(world.markers):
-            if int(m.id) in L:
-                continue
-            d = np.hypot(xy[:, 0] - m.x, xy[:, 1] - m.y)
-            d[i] = np.inf
-            left = bool(np.any((d < 0.3) & (xy[:, 0] > m.x)))
-            ax.annotate(str(m.id), (m.x, m.y), textcoords="offset points",
-                        xytext=(-4, 4) if left else (4, 4), ha="right" if left else "left",
-                        fontsize=8, color="0.6")
+        plot_world(ax, world, facing=False, color="0.6", label="markers (truth)",
+                   skip_ids=set(L))
     first = True
     for k, (ids, _, _) in enumerate(trace.problem.readings):
         for m in ids:
