@@ -44,14 +44,13 @@ from .ekf import (
     EKFSLAM,
     UpdateReport,
     _check_gate,
-    _Checked,
     gate_threshold,
-    integer_at_least,
     landmark_covariance,
 )
 from .metrics import mahalanobis2
 from .models import KOBUKI_WHEEL_BASE
 from .runs import Run
+from .validate import Checked, integer_at_least
 
 __all__ = ["Candidate", "ConfirmedSLAM", "confirmed_slam"]
 
@@ -105,9 +104,9 @@ class ConfirmedSLAM(EKFSLAM):
         self.frame = 0
         self._next_candidate = 0        # names of the candidates without ids
 
-    n_confirm = _Checked(lambda v: integer_at_least("n_confirm", v, 1),
+    n_confirm = Checked(lambda v: integer_at_least("n_confirm", v, 1),
                          "Sightings needed before an id is added (checked on set).")
-    max_gap = _Checked(lambda v: integer_at_least("max_gap", v, 1),
+    max_gap = Checked(lambda v: integer_at_least("max_gap", v, 1),
                        "Update calls a sighting may come after the previous one (checked on set).")
 
     def update(self, ids, z, R=None) -> UpdateReport:

@@ -22,29 +22,33 @@ order given (an id read twice in a call once, from its first reading). Where eac
 link is linearised is one hook, :meth:`EKFLocalization.jacobians`. Inputs are
 checked once, in ``predict`` and ``update``; a step whose result is not finite
 raises a ValueError and changes nothing. The models live in :mod:`slamlib.models`.
+The steps marked ``@compiled`` are these same functions compiled by numba
+(:mod:`slamlib.compiled`; why these and not the others: ``bench/README.md``).
 """
 
 from __future__ import annotations
 
 import math
-import numbers
 from dataclasses import dataclass
 
 import numpy as np
 
 from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour
+from .compiled import compiled
 from .metrics import chi2_quantile
 from .models import (
     KOBUKI_WHEEL_BASE,
     _check_control,
     _motion_jacobians,
     _motion_model,
+    _wrap,
     inverse_observation_jacobians,
     inverse_observe,
     observe_landmarks,
     wrap,
 )
 from .validate import (
+    Checked,
     as_covariance,
     as_finite_scalar,
     as_landmark_map,
@@ -54,6 +58,7 @@ from .validate import (
     as_readings,
     as_vector,
     count_readings,
+    integer_at_least,
 )
 
 __all__ = ["EKFLocalization", "EKFSLAM", "LinearisedEKFSLAM", "FEJEKFSLAM", "IdealEKFSLAM",
@@ -66,51 +71,56 @@ STATUSES = ("accepted", "rejected", "new", "duplicate", "unknown", "degenerate")
 #: The association methods (chapter 09; ``"ids"`` is chapters 03-05's look-up).
 ASSOCIATIONS = ("ids", "nn", "jcbb")
 #: r: the robot's entries of the state.
-ROBOT, ROBOT_IDX = slice(0, 3), np.arange(3)
+ROBOT = slice(0, 3)
 
 
 # --------------------------------------------------------------------------- the steps
+@compiled
 def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q: np.ndarray,
-            A: np.ndarray, W: np.ndarray) -> None:
+            A: np.ndarray, W: np.ndarray) -> bool:
     """One EKF prediction of the state ``x`` (n,) and ``P`` (n, n), in place (chapters 01, 05).
 
     The dense ``P = F P F' + F_w Q F_w'`` with ``F = blkdiag(A, I)``, ``F_w = [W; 0]``
     touches only the robot's rows and columns: the landmarks do not move. ``u``,
     ``dt``, ``b``: the wheel speeds ``[V_R, V_L]``, the step (s), the wheel base; ``Q``
     the covariance of u; ``A``, ``W`` the motion Jacobians where the filter
-    linearises (:meth:`EKFLocalization.jacobians`). A result that is not finite (an
-    overflow) raises a ValueError naming ``u`` and ``dt``, and changes nothing.
+    linearises (:meth:`EKFLocalization.jacobians`). Returns False, having changed
+    nothing, if the result would not be finite (an overflow). Compiled by numba.
     """
-    r, m = ROBOT, slice(3, None)
+    r, m = slice(0, 3), slice(3, x.shape[0])
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
     P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # [P1] P_rr = A P_rr A' + W Q W'
-    if not math.isfinite(x_r.sum() + P_rr.trace()):       # (P_rm overflows only if P_rr does)
-        raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
+    if not math.isfinite(x_r.sum() + np.trace(P_rr)):     # (P_rm overflows only if P_rr does)
+        return False
     x[r] = x_r
     P[r, m] = A @ P[r, m]                                 # [P2] P_rm = A P_rm
     P[m, r] = P[r, m].T                                   # [P3] P_mr = P_rm'
     P[r, r] = (P_rr + P_rr.T) / 2                         # (symmetric to the last bit)
     #                                                       [P4] P_mm = P_mm: the map stays
+    return True
 
 
+@compiled
 def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
     """``y = z - h(x)`` of readings ``[range, bearing]`` (..., 2), the bearing wrapped to
     [-pi, pi) (report eq. (1), which forgets the wrap; chapters 03, 05)."""
     y = z - h                                               # y = z - h(x)
-    y[..., 1] = wrap(y[..., 1])
+    y[..., 1] = _wrap(y[..., 1])
     return y
 
 
+@compiled
 def block_diagonal(blocks: np.ndarray) -> np.ndarray:
     """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2): :func:`diagonal_blocks`'s
     inverse."""
     m = blocks.shape[0]
     out = np.zeros((2 * m, 2 * m))
-    j = np.arange(m)
-    out.reshape(m, 2, m, 2)[j, :, j] = blocks
+    for j in range(m):
+        out[2 * j:2 * j + 2, 2 * j:2 * j + 2] = blocks[j]
     return out
 
 
+@compiled
 def stacked_jacobian(slots: np.ndarray, H_pose: np.ndarray, H_landmark: np.ndarray
                      ) -> tuple[np.ndarray, np.ndarray]:
     """The Jacobian of m readings stacked, over the columns it touches (chapters 03, 05).
@@ -127,15 +137,19 @@ def stacked_jacobian(slots: np.ndarray, H_pose: np.ndarray, H_landmark: np.ndarr
     (idx, H) : numpy.ndarray (c,) of int and (2m, c)
     """
     m = slots.shape[0]
-    if m == 0 or slots[0] < 0:
-        return ROBOT_IDX, H_pose.reshape(2 * m, 3)
-    idx = np.concatenate((ROBOT_IDX, (slots[:, None] + (0, 1)).ravel()))
-    H = np.zeros((2 * m, 3 + 2 * m))
-    H[:, :3] = H_pose.reshape(2 * m, 3)                     # d h_j / d x_r
-    H[:, 3:] = block_diagonal(H_landmark)                   # d h_j / d x_lj
+    known_map = m == 0 or slots[0] < 0                      # chapter 03: the pose only
+    idx = np.arange(3 if known_map else 3 + 2 * m)          # idx = [r, l_1, ..., l_m]
+    H = np.zeros((2 * m, idx.size))
+    for j in range(m):
+        H[2 * j:2 * j + 2, :3] = H_pose[j]                  # d h_j / d x_r
+        if not known_map:
+            c = 3 + 2 * j                                   # l_j's columns in idx
+            idx[c], idx[c + 1] = slots[j], slots[j] + 1
+            H[2 * j:2 * j + 2, c:c + 2] = H_landmark[j]     # d h_j / d x_lj
     return idx, H
 
 
+@compiled
 def innovation_covariance(P: np.ndarray, idx: np.ndarray, H: np.ndarray, R: np.ndarray
                           ) -> tuple[np.ndarray, np.ndarray]:
     """``P H'`` (n x 2m) and ``S = H P H' + R`` (2m x 2m) of stacked readings (chapters 03, 05).
@@ -149,6 +163,7 @@ def innovation_covariance(P: np.ndarray, idx: np.ndarray, H: np.ndarray, R: np.n
     return PHt, (S + S.T) / 2
 
 
+@compiled
 def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     """Each of m readings gated on its own against the prior (report eq. (6), chapter 05).
 
@@ -164,15 +179,18 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     y0, y1 = y[:, 0], y[:, 1]
     d2 = (s22 * y0 * y0 - 2.0 * s12 * y0 * y1 + s11 * y1 * y1) / det   # d2 = y' S_i^-1 y
     if threshold == math.inf:                               # no gate: every reading
-        return d2, S_i, np.ones(d2.shape, dtype=bool)
+        return d2, S_i, np.ones(d2.shape, dtype=np.bool_)
     return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)
 
 
+@compiled
 def diagonal_blocks(S: np.ndarray) -> np.ndarray:
     """The m 2x2 blocks (m, 2, 2) on the diagonal of a (2m, 2m) matrix."""
     m = S.shape[0] // 2
-    j = np.arange(m)
-    return S.reshape(m, 2, m, 2)[j, :, j, :]
+    out = np.empty((m, 2, 2))
+    for j in range(m):
+        out[j] = S[2 * j:2 * j + 2, 2 * j:2 * j + 2]
+    return out
 
 
 #: Up to this n, :func:`joint_update` changes P with one product (exactly symmetric: BLAS's
@@ -250,39 +268,6 @@ def _check_gate(gate, name: str = "gate", none: bool = True):
     if not 0.0 < g < 1.0:
         raise ValueError(f"{name}: expected a probability in (0, 1){' or None' * none}, got {g}")
     return g
-
-
-def integer_at_least(name: str, value, minimum: int) -> int:
-    """``value`` as an int >= ``minimum`` (not a bool), or a ValueError naming it."""
-    if isinstance(value, (bool, np.bool_)) or not isinstance(
-            value, (numbers.Integral, np.integer)) or value < minimum:
-        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
-    return int(value)
-
-
-class _Checked:
-    """A filter's parameter, checked whenever it is set (issue 24); a checked array is
-    stored read-only, so that it cannot be changed behind the check."""
-
-    def __init__(self, check, doc: str):
-        self.check, self.__doc__ = check, doc
-
-    def __set_name__(self, owner, name: str) -> None:
-        self.name = "_" + name
-
-    def __get__(self, obj, owner=None):
-        if obj is None:
-            return self
-        value = getattr(obj, self.name)
-        if isinstance(value, np.ndarray):               # (a copy of the filter is frozen too)
-            value.flags.writeable = False
-        return value
-
-    def __set__(self, obj, value) -> None:
-        value = self.check(value)
-        if isinstance(value, np.ndarray):
-            value.flags.writeable = False
-        setattr(obj, self.name, value)
 
 
 def _not_finite(name: str, what: str) -> ValueError:
@@ -421,13 +406,13 @@ class EKFLocalization:
         self._slot: dict[int, int] = {}           # marker id -> index of its x_F in the state
 
     # ------------------------------------------------------------------ parameters
-    Q = _Checked(lambda v: as_covariance("Q", v, 2), "Covariance of the wheel speeds (2x2).")
-    R = _Checked(lambda v: as_covariance("R", v, 2), "Default covariance of a reading (2x2).")
-    wheel_base = _Checked(lambda v: as_positive("wheel_base", v), "b (m).")
-    new_gate = _Checked(lambda v: _check_gate(v, "new_gate", none=False), """Without ids: a
+    Q = Checked(lambda v: as_covariance("Q", v, 2), "Covariance of the wheel speeds (2x2).")
+    R = Checked(lambda v: as_covariance("R", v, 2), "Default covariance of a reading (2x2).")
+    wheel_base = Checked(lambda v: as_positive("wheel_base", v), "b (m).")
+    new_gate = Checked(lambda v: _check_gate(v, "new_gate", none=False), """Without ids: a
         reading is new only if its d2 to every landmark is at least chi2.ppf(new_gate, 2) (and
         at least the gate's threshold, if the gate is wider).""")
-    max_nodes = _Checked(lambda v: integer_at_least("max_nodes", v, 1),
+    max_nodes = Checked(lambda v: integer_at_least("max_nodes", v, 1),
                          "JCBB's bound on the nodes searched per frame.")
 
     @property
@@ -531,9 +516,12 @@ class EKFLocalization:
         n, b = self._n, self._wheel_base
         step = (self._x[:n], self._P[:n, :n], u, dt, b, Q, A, W)
         if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
-            return predict(*step)                  # the usual case: u and dt cannot overflow
-        with np.errstate(all="ignore"):            # an overflow is refused, without a warning
-            return predict(*step)
+            done = predict(*step)                  # the usual case: u and dt cannot overflow
+        else:
+            with np.errstate(all="ignore"):        # an overflow is refused, without a warning
+                done = predict(*step)
+        if not done:
+            raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
 
     # ------------------------------------------------------------------ update
     def update(self, ids, z, R=None) -> UpdateReport:
@@ -572,12 +560,13 @@ class EKFLocalization:
         undo = self._save(fused is not None and new.size > 0)
         try:
             nis = float("nan") if fused is None else self._fuse(*fused)
-            for i, (status, _) in zip(new, self._admit(ids[new], z[new], R[new])):
-                fields["status"][i] = status
+            if new.size:                                    # ids never seen before
+                for i, (status, _) in zip(new, self._admit(ids[new], z[new], R[new])):
+                    fields["status"][i] = status
+                fields["new"] = np.array([s == "new" for s in fields["status"]], dtype=bool)
         except ValueError:
             self._restore(undo)
             raise
-        fields["new"] = np.array([s == "new" for s in fields["status"]], dtype=bool)
         return _report(fields, nis)
 
     def preview(self, ids, z, R=None) -> UpdateReport:

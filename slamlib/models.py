@@ -25,6 +25,7 @@ import math
 
 import numpy as np
 
+from .compiled import compiled
 from .validate import as_finite_scalar, as_matrix, as_positive, as_vector
 
 __all__ = [
@@ -80,6 +81,9 @@ def wrap(a):
     """
     w = (a + _PI) % _TWO_PI - _PI
     return w - _TWO_PI * (w >= _PI)
+
+
+_wrap = compiled(wrap)                       # the same function, for compiled callers
 
 
 # --------------------------------------------------------------------------- wheels
@@ -168,6 +172,9 @@ def body_speeds(V_R, V_L, b):
     return 0.5 * (V_R + V_L), (V_L - V_R) / b
 
 
+_body_speeds = compiled(body_speeds)
+
+
 # --------------------------------------------------------------------------- motion
 def _check_motion_args(x, u, dt, wheel_base):
     x = as_vector("x", x, 3)
@@ -218,13 +225,14 @@ def motion_model(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE) -> np.n
     return _motion_model(*_check_motion_args(x, u, dt, wheel_base))
 
 
+@compiled
 def _motion_model(x, u, dt: float, b: float) -> np.ndarray:
     """:func:`motion_model` on checked arguments (the filters' predict checks them once)."""
-    V, w = body_speeds(float(u[0]), float(u[1]), b)
+    V, w = _body_speeds(float(u[0]), float(u[1]), b)
     th = float(x[2])
     return np.array([x[0] + V * math.cos(th) * dt,          # x + V cos(theta) dt
                      x[1] + V * math.sin(th) * dt,          # y + V sin(theta) dt
-                     wrap(th + w * dt)])                    # theta + w dt, wrapped
+                     _wrap(th + w * dt)])                   # theta + w dt, wrapped
 
 
 def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
@@ -251,9 +259,10 @@ def motion_jacobians(x, u, dt: float, wheel_base: float = KOBUKI_WHEEL_BASE
     return _motion_jacobians(*_check_motion_args(x, u, dt, wheel_base))
 
 
+@compiled
 def _motion_jacobians(x, u, dt: float, b: float) -> tuple[np.ndarray, np.ndarray]:
     """:func:`motion_jacobians` on checked arguments (the filters' predict checks them once)."""
-    V, _ = body_speeds(float(u[0]), float(u[1]), b)
+    V, _ = _body_speeds(float(u[0]), float(u[1]), b)
     c, s = math.cos(float(x[2])), math.sin(float(x[2]))
     A = np.array([[1.0, 0.0, -(V * s * dt)],              # d f / d x_{k-1}
                   [0.0, 1.0, V * c * dt],

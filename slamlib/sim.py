@@ -32,15 +32,15 @@ from __future__ import annotations
 import math
 from dataclasses import asdict, dataclass, field, replace
 
-import numba
 import numpy as np
 
+from .compiled import compiled
 from .models import (
     KOBUKI_TICKS_PER_REV,
     KOBUKI_WHEEL_BASE,
     KOBUKI_WHEEL_RADIUS,
-    body_speeds,
-    wrap,
+    _body_speeds,
+    _wrap,
     wrap_angle,
 )
 from .runs import CAMERA_HEADER, CameraRows, Run
@@ -51,21 +51,6 @@ from .worlds import World
 __all__ = ["KobukiParams", "WaypointController", "wheel_commands", "integrate_arc",
            "encoder_counter", "KobukiSim", "simulate", "arena_loop_waypoints", "loop_waypoints",
            "arena_laps_waypoints", "SCENARIOS", "STUDY_SCENARIOS", "scenario", "kobuki_params_dict"]
-
-
-# --------------------------------------------------------------------------- compiled
-def _compiled(func):
-    """``func`` compiled by numba (the same function, not a copy), its machine code cached
-    beside the source when that folder (or numba's user cache) is writable; otherwise
-    compiled once per process (a read-only install and HOME)."""
-    try:
-        return numba.njit(cache=True)(func)
-    except RuntimeError:                     # numba: "cannot cache function ...: no locator"
-        return numba.njit(func)
-
-
-_wrap = _compiled(wrap)
-_body_speeds = _compiled(body_speeds)
 
 
 # --------------------------------------------------------------------------- pure pieces
@@ -85,7 +70,7 @@ def wheel_commands(v: float, w: float, wheel_base: float = KOBUKI_WHEEL_BASE
     return v - half, v + half
 
 
-_wheel_commands = _compiled(wheel_commands)
+_wheel_commands = compiled(wheel_commands)
 
 
 def integrate_arc(pose, v: float, w: float, dt: float) -> np.ndarray:
@@ -124,17 +109,17 @@ def encoder_counter(rim_angle: float, ticks_per_rev: float = KOBUKI_TICKS_PER_RE
 # capture instants, the exact arc and the encoders. Each function is compiled by numba (its
 # Python, with NUMBA_DISABLE_JIT=1); Python's min and max are written out (``min(a, b)`` is ``b``
 # only if ``b < a``) so that ties give the same float as in Python.
-@_compiled
+@compiled
 def _py_min(a: float, b: float) -> float:
     return b if b < a else a
 
 
-@_compiled
+@compiled
 def _py_max(a: float, b: float) -> float:
     return b if b > a else a
 
 
-@_compiled
+@compiled
 def arc(x: float, y: float, th: float, v: float, w: float, dt: float):
     """Exact motion at constant ``v`` and ``w`` for ``dt`` (``slamlib.sim.integrate_arc``).
 
@@ -151,7 +136,7 @@ def arc(x: float, y: float, th: float, v: float, w: float, dt: float):
             _wrap(th1))
 
 
-@_compiled
+@compiled
 def encoder_count(rim_angle: float, ticks_per_rev: float, offset: int, bits: int) -> int:
     """The counter after the wheel turned ``rim_angle`` (``slamlib.sim.encoder_counter``):
     whole ticks (floor) plus ``offset``, modulo ``2**bits``."""
@@ -159,7 +144,7 @@ def encoder_count(rim_angle: float, ticks_per_rev: float, offset: int, bits: int
     return (ticks + offset) % (1 << bits)
 
 
-@_compiled
+@compiled
 def waypoint_command(wp, index: int, v: float, w: float, px: float, py: float, th: float,
                      dt: float, b: float, v_max: float, w_max: float, k_heading: float,
                      accel: float, alpha: float, tolerance: float, turn_in_place: float):
@@ -193,7 +178,7 @@ def waypoint_command(wp, index: int, v: float, w: float, px: float, py: float, t
     return index, v, w, VR, VL
 
 
-@_compiled
+@compiled
 def sim_period(pose, VR: float, VL: float, eR: float, eL: float, k: int, next_frame: int,
                b: float, dt: float, sigma_wheel: float, encoder_rate: float,
                camera_rate: float, cap_j, cap_pose):
@@ -226,7 +211,7 @@ def sim_period(pose, VR: float, VL: float, eR: float, eL: float, k: int, next_fr
     return next_frame, n
 
 
-@_compiled
+@compiled
 def drive_waypoints(wp, control, pose, state, angles, slip, n_max: int, b: float, r: float,
                     dt: float, sigma_wheel: float, encoder_rate: float, camera_rate: float,
                     ticks_per_rev: float, bits: int, off_R: int, off_L: int,

@@ -15,9 +15,12 @@ from collections.abc import Mapping
 
 import numpy as np
 
+from .compiled import compiled
+
 __all__ = ["as_vector", "as_matrix", "as_covariance", "as_positive", "as_finite_scalar", "as_seed",
            "read_text_file", "read_json_file", "as_marker_ids", "ID_MAX", "as_readings",
-           "count_readings", "as_reading_covariances", "as_landmark_map"]
+           "count_readings", "as_reading_covariances", "as_landmark_map", "integer_at_least",
+           "Checked"]
 
 
 #: Where a number is expected these are refused, not converted: ``float("0.1")`` and
@@ -432,14 +435,27 @@ def as_readings(z, k: int) -> np.ndarray:
         a = a.reshape(1, 2)
     if a.shape != (k, 2):
         raise ValueError(f"z: expected shape ({k}, 2) for {k} ids, got {a.shape}")
-    if not np.all(np.isfinite(a)):
-        bad = int(np.argwhere(~np.isfinite(a))[0, 0])
-        raise ValueError(f"z: expected finite readings, row {bad} is {a[bad]} (NaN or inf)")
-    if np.any(a[:, 0] < 0.0):
-        bad = int(np.argmax(a[:, 0] < 0.0))
-        raise ValueError(f"z: expected non-negative ranges z[:, 0], row {bad} has range "
-                         f"{a[bad, 0]}")
+    not_finite, negative = _first_bad_readings(a)
+    if not_finite >= 0:
+        raise ValueError(f"z: expected finite readings, row {not_finite} is {a[not_finite]} "
+                         f"(NaN or inf)")
+    if negative >= 0:
+        raise ValueError(f"z: expected non-negative ranges z[:, 0], row {negative} has range "
+                         f"{a[negative, 0]}")
     return a
+
+
+@compiled
+def _first_bad_readings(a: np.ndarray) -> tuple[int, int]:
+    """The first row of readings (k, 2) that is not finite, and the first with a negative
+    range (-1: none)."""
+    not_finite, negative = -1, -1
+    for i in range(a.shape[0]):
+        if not_finite < 0 and not (math.isfinite(a[i, 0]) and math.isfinite(a[i, 1])):
+            not_finite = i
+        if negative < 0 and a[i, 0] < 0.0:
+            negative = i
+    return not_finite, negative
 
 
 def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
@@ -457,23 +473,26 @@ def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
     if a.ndim != 3 or a.shape != (k, 2, 2):
         raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
                          f"got {a.shape}")
-    # vectorised checks of k 2x2 matrices (a camera gives one per reading, every frame)
-    if np.isfinite(a).all():                   # the usual case, the same checks in fewer steps
-        scale = np.maximum(1.0, np.abs(a).max(axis=(1, 2)))
-        if ((np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale).all()
-                and (a[:, 0, 0] > 0.0).all()
-                and (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0).all()):
-            return 0.5 * (a + a.transpose(0, 2, 1))
-    finite = np.all(np.isfinite(a), axis=(1, 2))
-    scale = np.maximum(1.0, np.max(np.abs(np.where(np.isfinite(a), a, 0.0)), axis=(1, 2)))
-    sym = np.abs(a[:, 0, 1] - a[:, 1, 0]) <= 1e-9 * scale
-    pd = (a[:, 0, 0] > 0.0) & (a[:, 0, 0] * a[:, 1, 1] - a[:, 0, 1] * a[:, 1, 0] > 0.0)
-    bad = np.flatnonzero(~(finite & sym & pd))
-    if bad.size:
-        i = int(bad[0])
+    i = _first_bad_covariance(a)             # k 2x2 matrices, one per reading, every frame
+    if i >= 0:
         as_covariance(f"R[{i}]", a[i], 2)     # raises with the precise reason
         raise ValueError(f"R[{i}]: expected a positive-definite matrix")  # pragma: no cover
     return 0.5 * (a + a.transpose(0, 2, 1))
+
+
+@compiled
+def _first_bad_covariance(a: np.ndarray) -> int:
+    """The first of k 2x2 matrices (k, 2, 2) that is not finite, symmetric (to 1e-9 of its
+    largest entry, at least 1) and positive definite, or -1 (:func:`as_covariance`'s checks)."""
+    for i in range(a.shape[0]):
+        m = a[i]
+        if not np.isfinite(m).all():
+            return i
+        scale = max(1.0, np.abs(m).max())
+        if not (abs(m[0, 1] - m[1, 0]) <= 1e-9 * scale and m[0, 0] > 0.0
+                and m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0] > 0.0):
+            return i
+    return -1
 
 
 def as_landmark_map(landmarks) -> dict[int, np.ndarray]:
@@ -493,3 +512,36 @@ def as_landmark_map(landmarks) -> dict[int, np.ndarray]:
             raise ValueError(f"landmarks: duplicate marker id {k}")
         out[k] = as_vector(f"landmarks[{k}]", pos, 2).copy()
     return out
+
+
+def integer_at_least(name: str, value, minimum: int) -> int:
+    """``value`` as an int >= ``minimum`` (not a bool), or a ValueError naming it."""
+    if isinstance(value, (bool, np.bool_)) or not isinstance(
+            value, (numbers.Integral, np.integer)) or value < minimum:
+        raise ValueError(f"{name}: expected an integer >= {minimum}, got {value!r}")
+    return int(value)
+
+
+class Checked:
+    """A filter's parameter, checked whenever it is set ; a checked array is
+    stored read-only, so that it cannot be changed behind the check."""
+
+    def __init__(self, check, doc: str):
+        self.check, self.__doc__ = check, doc
+
+    def __set_name__(self, owner, name: str) -> None:
+        self.name = "_" + name
+
+    def __get__(self, obj, owner=None):
+        if obj is None:
+            return self
+        value = getattr(obj, self.name)
+        if isinstance(value, np.ndarray):               # (a copy of the filter is frozen too)
+            value.flags.writeable = False
+        return value
+
+    def __set__(self, obj, value) -> None:
+        value = self.check(value)
+        if isinstance(value, np.ndarray):
+            value.flags.writeable = False
+        setattr(obj, self.name, value)

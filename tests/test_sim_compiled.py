@@ -1,6 +1,7 @@
-"""The simulator's compiled loop (slamlib.sim, numba): the one implementation of the
-simulator, whether numba compiles it, runs it as Python (NUMBA_DISABLE_JIT=1) or cannot
-cache it (a read-only package folder and HOME); and the runner's loop (issue 23)."""
+"""The compiled functions (slamlib.compiled, numba): the simulator's loop and the EKF's steps
+(``ekf.predict``, ``gate``, ...), one implementation each, whether numba compiles them, runs
+them as Python (NUMBA_DISABLE_JIT=1) or cannot cache them (a read-only package folder and
+HOME); and the runner's loop (issue 23). Each run below simulates and filters with EKF SLAM."""
 
 from __future__ import annotations
 

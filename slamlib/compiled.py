@@ -1,0 +1,30 @@
+"""numba on the course's own functions: the same function compiled, never a second copy.
+
+:func:`compiled` returns ``func`` compiled by numba; its ``py_func`` is ``func``
+itself, the code a chapter prints with ``inspect.getsource``. The machine code is
+cached beside the source when that folder (or numba's user cache) is writable;
+otherwise it is compiled once per process (a read-only install and HOME). With
+``NUMBA_DISABLE_JIT=1`` the same functions run as Python, with the same results.
+"""
+
+from __future__ import annotations
+
+import warnings
+
+import numba
+from numba.core.errors import NumbaPerformanceWarning
+
+__all__ = ["compiled"]
+
+# numba notes, once per compilation, that ``A @ P[r, m]`` on a block of P (not contiguous)
+# copies the block first: that is the block product the chapters write, so the note is
+# silenced for the course's own files only.
+warnings.filterwarnings("ignore", category=NumbaPerformanceWarning, module=r".*slamlib")
+
+
+def compiled(func):
+    """``func`` compiled by numba (``numba.njit``), cached where it can be."""
+    try:
+        return numba.njit(cache=True)(func)
+    except RuntimeError:                     # numba: "cannot cache function ...: no locator"
+        return numba.njit(func)
