@@ -162,10 +162,10 @@ def main(argv=None) -> None:
     seeds = range(1000, 1000 + args.runs)
     print(f"numpy {np.__version__}, python {platform.python_version()}, "
           f"{os.cpu_count()} cpus, load average {os.getloadavg()[0]:.1f}")
-    # the simulator's compiled loop (slamlib.sim) loads from numba's cache, or compiles on a
-    # fresh clone: once per process, before anything is timed
+    # the compiled functions (the simulator's loop, the EKF's @compiled steps) load from
+    # numba's cache, or compile on a fresh clone: once per process, before anything is timed
     _, w_jit, _ = timed(lambda: runner.slam(sim.scenario("arena_loop", seed=1), max_time=1.0))
-    print(f"the simulator's compiled loop loaded (or compiled) in {w_jit:.2f} s, not counted")
+    print(f"the compiled functions loaded (or compiled) in {w_jit:.2f} s, not counted")
     runs, w_sim, c_sim = timed(lambda: [sim.scenario("arena_loop", seed=s) for s in seeds])
     _, w_dense, c_dense = timed(lambda: [dense_slam(r) for r in runs])
     _, w_filt, c_filt = timed(lambda: [runner.slam(r) for r in runs])

@@ -9,7 +9,9 @@ otherwise it is compiled once per process (a read-only install and HOME). With
 
 from __future__ import annotations
 
+import re
 import warnings
+from pathlib import Path
 
 import numba
 from numba.core.errors import NumbaPerformanceWarning
@@ -17,9 +19,10 @@ from numba.core.errors import NumbaPerformanceWarning
 __all__ = ["compiled"]
 
 # numba notes, once per compilation, that ``A @ P[r, m]`` on a block of P (not contiguous)
-# copies the block first: that is the block product the chapters write, so the note is
-# silenced for the course's own files only.
-warnings.filterwarnings("ignore", category=NumbaPerformanceWarning, module=r".*slamlib")
+# copies the block first: that is the block product the chapters write. numba gives the
+# source file as the warning's module, so the note is silenced for this package's files only.
+warnings.filterwarnings("ignore", category=NumbaPerformanceWarning,
+                        module=re.escape(str(Path(__file__).resolve().parent)) + r"[/\\]")
 
 
 def compiled(func):

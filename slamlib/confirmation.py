@@ -105,9 +105,9 @@ class ConfirmedSLAM(EKFSLAM):
         self._next_candidate = 0        # names of the candidates without ids
 
     n_confirm = Checked(lambda v: integer_at_least("n_confirm", v, 1),
-                         "Sightings needed before an id is added (checked on set).")
+                        "Sightings needed before an id is added (checked on set).")
     max_gap = Checked(lambda v: integer_at_least("max_gap", v, 1),
-                       "Update calls a sighting may come after the previous one (checked on set).")
+                      "Update calls a sighting may come after the previous one (checked on set).")
 
     def update(self, ids, z, R=None) -> UpdateReport:
         """:meth:`EKFSLAM.update`, in which a reading of no mapped landmark confirms a candidate

@@ -21,9 +21,11 @@ fused jointly, then the ids never seen before added from the updated pose in the
 order given (an id read twice in a call once, from its first reading). Where each
 link is linearised is one hook, :meth:`EKFLocalization.jacobians`. Inputs are
 checked once, in ``predict`` and ``update``; a step whose result is not finite
-raises a ValueError and changes nothing. The models live in :mod:`slamlib.models`.
+changes nothing, and the filter raises a ValueError (:func:`predict` returns False:
+compiled code cannot format the message). The models live in :mod:`slamlib.models`.
 The steps marked ``@compiled`` are these same functions compiled by numba
-(:mod:`slamlib.compiled`; why these and not the others: ``bench/README.md``).
+(:mod:`slamlib.compiled`; they take float arrays; why these and not the others:
+``bench/README.md``).
 """
 
 from __future__ import annotations
@@ -105,7 +107,7 @@ def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
     """``y = z - h(x)`` of readings ``[range, bearing]`` (..., 2), the bearing wrapped to
     [-pi, pi) (report eq. (1), which forgets the wrap; chapters 03, 05)."""
     y = z - h                                               # y = z - h(x)
-    y[..., 1] = _wrap(y[..., 1])
+    y[..., 1] = _wrap(y[..., 1])                            # (_wrap: models.wrap, compiled)
     return y
 
 
@@ -179,7 +181,7 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     y0, y1 = y[:, 0], y[:, 1]
     d2 = (s22 * y0 * y0 - 2.0 * s12 * y0 * y1 + s11 * y1 * y1) / det   # d2 = y' S_i^-1 y
     if threshold == math.inf:                               # no gate: every reading
-        return d2, S_i, np.ones(d2.shape, dtype=np.bool_)
+        return d2, S_i, np.ones(d2.shape, dtype=np.bool_)  # (numba's name of bool)
     return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)
 
 
@@ -413,7 +415,7 @@ class EKFLocalization:
         reading is new only if its d2 to every landmark is at least chi2.ppf(new_gate, 2) (and
         at least the gate's threshold, if the gate is wider).""")
     max_nodes = Checked(lambda v: integer_at_least("max_nodes", v, 1),
-                         "JCBB's bound on the nodes searched per frame.")
+                        "JCBB's bound on the nodes searched per frame.")
 
     @property
     def gate(self) -> float | None:
@@ -516,11 +518,11 @@ class EKFLocalization:
         n, b = self._n, self._wheel_base
         step = (self._x[:n], self._P[:n, :n], u, dt, b, Q, A, W)
         if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
-            done = predict(*step)                  # the usual case: u and dt cannot overflow
+            finite = predict(*step)                # the usual case: u and dt cannot overflow
         else:
             with np.errstate(all="ignore"):        # an overflow is refused, without a warning
-                done = predict(*step)
-        if not done:
+                finite = predict(*step)
+        if not finite:
             raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
 
     # ------------------------------------------------------------------ update

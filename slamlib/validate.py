@@ -523,7 +523,7 @@ def integer_at_least(name: str, value, minimum: int) -> int:
 
 
 class Checked:
-    """A filter's parameter, checked whenever it is set ; a checked array is
+    """A filter's parameter, checked whenever it is set; a checked array is
     stored read-only, so that it cannot be changed behind the check."""
 
     def __init__(self, check, doc: str):

@@ -49,7 +49,8 @@ __all__ = ["check_predict_covariance", "check_stacked_jacobian", "check_joint_up
 def _predict_covariance(P, A, W, Q) -> np.ndarray:
     """``P`` after :func:`slamlib.ekf.predict` with the Jacobians ``A``, ``W`` (a copy)."""
     P = np.array(P, dtype=float)
-    ekf.predict(np.zeros(P.shape[0]), P, np.zeros(2), 0.0, 1.0, Q, A, W)
+    if not ekf.predict(np.zeros(P.shape[0]), P, np.zeros(2), 0.0, 1.0, Q, A, W):
+        raise ValueError("the expected prediction is not finite: check A, W and Q")
     return P
 
 
