@@ -29,8 +29,9 @@ landmark's gate is compared with the candidates of the last ``max_gap`` frames
 (same test as above; the closest consistent one, each candidate at most once
 per frame); it confirms that candidate, or starts a new one. A confirmed
 candidate enters the map under a name the filter gives (``max(ids) + 1``).
-Candidates not seen again within ``max_gap`` frames are dropped: a one-off
-clutter reading never enters the map.
+With or without ids, candidates not seen again within ``max_gap`` frames are
+dropped (at the next frame with a reading of no mapped landmark): a one-off
+misread or clutter reading never enters the map, nor stays among the candidates.
 """
 
 from __future__ import annotations
@@ -137,7 +138,7 @@ class ConfirmedSLAM(EKFSLAM):
                                    z=z)
         C = [landmark_covariance(J1[q], self._P[:3, :3], J2[q], R[q]) for q in range(k)]
         expired = [c for c, prev in self.candidates.items()
-                   if ids is None and self.frame - prev.frame > self.max_gap]
+                   if self.frame - prev.frame > self.max_gap]     # too old to be confirmed
         if ids is None:
             match = self._match_anonymous(m, C, expired)
         else:                       # with ids: the candidate of the same id, if consistent

@@ -74,6 +74,17 @@ def test_a_single_misread_id_never_enters_the_map():
     assert rep.status == ("candidate",) and 42 not in f.landmark_ids
 
 
+def test_a_candidate_not_seen_within_max_gap_is_dropped():
+    """With ids too: a one-off misread leaves no candidate behind once it is too old."""
+    f = make(max_gap=2)
+    f.update(*frame(POSE, [3]))                             # frame 1: candidate 3
+    for _ in range(2):
+        f.update(np.array([], dtype=int), np.zeros((0, 2)))  # frames 2, 3: nothing
+    assert set(f.candidates) == {3}                         # gap 2: may still be confirmed
+    f.update(*frame(POSE, [7]))                             # frame 4: 3 is 3 frames old
+    assert set(f.candidates) == {7}
+
+
 def test_two_inconsistent_sightings_of_one_id_do_not_confirm_it():
     # id 3 read first at marker 3's place, then at marker 7's (a misread twice, 1.7 m apart)
     f = make()
