@@ -132,7 +132,8 @@ class ConfirmedSLAM(EKFSLAM):
 
     def _admit(self, ids, z, R):
         """Each reading of no mapped landmark, seen from the updated pose, confirms a candidate
-        or starts one; the confirmed ones are added (:meth:`EKFSLAM._admit`)."""
+        or starts one; the confirmed ones are added (:meth:`EKFSLAM._admit`) at the m, J1, J2
+        computed here."""
         k = z.shape[0]
         m, J1, J2 = self.jacobians("initialisation", ids=np.full(k, -1) if ids is None else ids,
                                    z=z)
@@ -148,7 +149,8 @@ class ConfirmedSLAM(EKFSLAM):
         n = [self.candidates[match[q]].sightings + 1 if q in match else 1 for q in range(k)]
         confirmed = [q for q in range(k) if n[q] >= self.n_confirm]
         added = dict(zip(confirmed, (mid for _, mid in super()._admit(
-            None if ids is None else ids[confirmed], z[confirmed], R[confirmed]))))
+            None if ids is None else ids[confirmed], z[confirmed], R[confirmed],
+            (m[confirmed], J1[confirmed], J2[confirmed])))))
         for key in expired:                                          # not seen again: dropped
             del self.candidates[key]
         out = []

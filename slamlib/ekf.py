@@ -621,10 +621,11 @@ class EKFLocalization:
         n = self._n
         return joint_update(self._x[:n], self._P[:n, :n], PHt, S, y.reshape(-1))
 
-    def _admit(self, ids, z: np.ndarray, R: np.ndarray) -> list[tuple[str, int | None]]:
+    def _admit(self, ids, z: np.ndarray, R: np.ndarray, g=None) -> list[tuple[str, int | None]]:
         """What becomes of readings of no mapped landmark (new ids, or chapter 09's readings far
         from every landmark, ``ids`` None): ``(status, map id)`` each. The known map rejects
-        them; :class:`EKFSLAM` adds them; ``ConfirmedSLAM`` holds them as candidates."""
+        them; :class:`EKFSLAM` adds them; ``ConfirmedSLAM`` holds them as candidates. ``g``:
+        their ``(m, J1, J2)`` at the current pose, when the caller has them already."""
         return [("unknown" if ids is not None else "rejected", None)] * z.shape[0]
 
     def _save(self, copy_state: bool) -> tuple:
@@ -782,20 +783,21 @@ class EKFSLAM(EKFLocalization):
     def _slots(self, ids: list) -> list:
         return [self._slot.get(i) for i in ids]
 
-    def _admit(self, ids, z, R):
+    def _admit(self, ids, z, R, g=None):
         """Add every reading as a new landmark, in order (without ids named ``max + 1``)."""
         if ids is None:
             start = max(self._ids) + 1 if self._ids else 0
             ids = np.arange(start, start + z.shape[0])
-        self._add_landmarks(ids, z, R)
+        self._add_landmarks(ids, z, R, g)
         return [("new", int(i)) for i in ids]
 
-    def _add_landmarks(self, ids, z: np.ndarray, R: np.ndarray) -> None:
-        """Append landmarks from the current pose (chapter 04): :func:`augment` each, in order."""
+    def _add_landmarks(self, ids, z: np.ndarray, R: np.ndarray, g=None) -> None:
+        """Append landmarks from the current pose (chapter 04): :func:`augment` each, in order;
+        ``g = (m, J1, J2)`` of the readings if already computed at this pose."""
         if len(ids) == 0:
             return
         self._reserve(self._n + 2 * len(ids))
-        m, J1, J2 = self.jacobians("initialisation", ids=ids, z=z)
+        m, J1, J2 = self.jacobians("initialisation", ids=ids, z=z) if g is None else g
         for j, mid in enumerate(np.asarray(ids).tolist()):
             n = self._n
             augment(self._x, self._P, n, m[j], J1[j], J2[j], R[j])
@@ -887,8 +889,8 @@ class LinearisedEKFSLAM(EKFSLAM):
         self._propagated = self.pose
         self.t += float(dt)
 
-    def _admit(self, ids, z, R):
-        out = super()._admit(ids, z, R)
+    def _admit(self, ids, z, R, g=None):
+        out = super()._admit(ids, z, R, g)
         for _, mid in out:
             self._first[mid] = self.landmark(mid)
         return out

@@ -74,6 +74,25 @@ def test_a_single_misread_id_never_enters_the_map():
     assert rep.status == ("candidate",) and 42 not in f.landmark_ids
 
 
+def test_a_confirmed_landmark_is_initialised_once():
+    """The inverse observation of a confirmed reading is computed once, where it is tested
+    against its candidate, and added with those numbers (no second call of the hook)."""
+
+    class Counting(ConfirmedSLAM):
+        calls = 0
+
+        def jacobians(self, link, ids=None, z=None, u=None, dt=None):
+            Counting.calls += link == "initialisation"
+            return super().jacobians(link, ids=ids, z=z, u=u, dt=dt)
+
+    f = make(Counting)
+    ids, z = frame(POSE, [3, 7])
+    f.update(ids, z)
+    Counting.calls = 0
+    assert f.update(ids, z).status == ("new", "new")
+    assert Counting.calls == 1 and f.landmark_ids == [3, 7]
+
+
 def test_a_candidate_not_seen_within_max_gap_is_dropped():
     """With ids too: a one-off misread leaves no candidate behind once it is too old."""
     f = make(max_gap=2)
