@@ -89,7 +89,7 @@ def predict(x: np.ndarray, P: np.ndarray, u: np.ndarray, dt: float, b: float, Q:
     linearises (:meth:`EKFLocalization.jacobians`). Returns False, having changed
     nothing, if the result would not be finite (an overflow). Compiled by numba.
     """
-    r, m = slice(0, 3), slice(3, x.shape[0])
+    r, m = slice(0, 3), slice(3, x.shape[0])              # r: ROBOT (numba: no global slice)
     x_r = _motion_model(x[r], u, dt, b)                   # x_r = f(x_r, u)
     P_rr = A @ P[r, r] @ A.T + W @ Q @ W.T                # [P1] P_rr = A P_rr A' + W Q W'
     if not math.isfinite(x_r.sum() + np.trace(P_rr)):     # (P_rm overflows only if P_rr does)
