@@ -10,6 +10,10 @@ NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize
 SETUP  := $(if $(filter file,$(origin PY)),$(STAMP))
 # matplotlib refuses an unknown MPLBACKEND at import; the course chooses its own backends
 unexport MPLBACKEND
+# numpy's AVX-512 code (its own sin, cos, arctan2, ...) rounds some results differently in the
+# last bit from the AVX2 code most machines run: with it off, every target computes the same
+# bytes (notebooks, stored studies) on a machine with AVX-512 as on one without
+export NPY_DISABLE_CPU_FEATURES := X86_V4 AVX512_ICL AVX512_SPR
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \
         student runs lab bench clean studies evidence association-study graph-study \
