@@ -359,6 +359,7 @@ def observation_jacobians(pose, landmark) -> tuple[np.ndarray, np.ndarray]:
     return H_pose[0], H_landmark[0]
 
 
+@compiled
 def range_bearing(dx, dy, theta):
     """``h`` from the offsets of a point (floats or arrays, broadcast; no checks).
 
@@ -366,14 +367,16 @@ def range_bearing(dx, dy, theta):
     with ``dx = x_F - x_B``, ``dy = y_F - y_B`` and ``theta`` the heading of
     the frame the point is seen from: the one home of the formula, which the
     filters (:func:`observe_landmarks`), the sensors and the data tools use.
+    Compiled by numba: arctan2 is the C library's ``atan2``.
 
     Returns
     -------
     (rho, beta)
     """
-    return np.hypot(dx, dy), wrap(np.arctan2(dy, dx) - theta)
+    return np.hypot(dx, dy), _wrap(np.arctan2(dy, dx) - theta)   # (_wrap: wrap, compiled)
 
 
+@compiled
 def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarray]:
     """The direct observation of k landmarks and its Jacobians, vectorised (chapter 03).
 
@@ -390,22 +393,24 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
     ``H_landmark[1, 0]``: both signs are wrong, appendix A.) A landmark on top
     of the robot has no bearing: its rows of ``h``, ``H_landmark`` and the
     first two columns of ``H_pose`` come back NaN. No checks: the callers check.
+    Compiled by numba (as :func:`range_bearing`), so it takes arrays of floats.
 
     Parameters
     ----------
-    pose : numpy.ndarray, shape (3,)
-    landmarks : numpy.ndarray, shape (k, 2)
+    pose : numpy.ndarray of float, shape (3,)
+    landmarks : numpy.ndarray of float, shape (k, 2)
 
     Returns
     -------
     (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
     """
-    L = np.asarray(landmarks, dtype=float).reshape(-1, 2)
+    L = np.ascontiguousarray(landmarks).reshape(-1, 2)
     dx, dy = L[:, 0] - pose[0], L[:, 1] - pose[1]
     r, beta = range_bearing(dx, dy, pose[2])                # h = [r, beta]
     q = dx * dx + dy * dy
     if not q.all():                                         # a landmark on the robot: no bearing
-        r, beta, q = (np.where(q > 0.0, v, np.nan) for v in (r, beta, q))
+        on_robot = q == 0.0
+        r[on_robot], beta[on_robot], q[on_robot] = np.nan, np.nan, np.nan
     k = L.shape[0]
     h, H_landmark, H_pose = np.empty((k, 2)), np.empty((k, 2, 2)), np.empty((k, 2, 3))
     h[:, 0], h[:, 1] = r, beta
