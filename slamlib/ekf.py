@@ -176,10 +176,7 @@ def gate(y: np.ndarray, S: np.ndarray, threshold: float) -> tuple:
     ``d2`` (m,), ``S_i`` (m, 2, 2) and which readings are accepted (m,).
     """
     S_i = diagonal_blocks(S)                                # S_i = H_i P H_i' + R_i
-    s11, s12, s22 = S_i[:, 0, 0], S_i[:, 0, 1], S_i[:, 1, 1]  # S_i = [[s11, s12], [s12, s22]]
-    det = s11 * s22 - s12 * s12                 # S_i^-1 = [[s22, -s12], [-s12, s11]] / det
-    y0, y1 = y[:, 0], y[:, 1]
-    d2 = (s22 * y0 * y0 - 2.0 * s12 * y0 * y1 + s11 * y1 * y1) / det   # d2 = y' S_i^-1 y
+    d2 = individual_d2(y, S_i)                              # d2 = y' S_i^-1 y
     if threshold == math.inf:                               # no gate: every reading
         return d2, S_i, np.ones(d2.shape, dtype=np.bool_)  # (numba's name of bool)
     return d2, S_i, d2 < threshold                          # d2 < chi2.ppf(gate, 2)

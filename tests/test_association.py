@@ -397,3 +397,14 @@ def test_solve_lower_is_the_inverse_of_a_lower_triangular_matrix():
         X = asc.solve_lower(L, B)
         np.testing.assert_allclose(L @ X, B, rtol=1e-12, atol=1e-12)
         assert not np.shares_memory(X, B)
+
+
+@pytest.mark.parametrize("shape", [(7,), (3, 4)])
+def test_individual_d2_is_y_S_inverse_y(shape):
+    # one formula for the gate with ids (m readings) and every pair without (k x N)
+    rng = np.random.default_rng(len(shape))
+    y = rng.normal(size=shape + (2,))
+    A = rng.normal(size=shape + (2, 2))
+    S = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(2)
+    want = np.einsum("...i,...ij,...j->...", y, np.linalg.inv(S), y)
+    np.testing.assert_allclose(asc.individual_d2(y, S), want, rtol=1e-12)
