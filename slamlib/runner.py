@@ -152,28 +152,43 @@ def reading_covariances(sensor, z) -> np.ndarray | None:
 
 class TraceRecorder:
     """Collects a filter's pose estimate and covariance after each event, then makes the
-    :class:`Trace` (one place for what every driver of a filter records)."""
+    :class:`Trace` (one place for what every driver of a filter records).
 
-    def __init__(self, t0: float, filt):
-        self.t, self.kind = [float(t0)], ["start"]
-        self._x, self._P = [filt.pose[None]], [filt.pose_cov[None]]     # chunks (k, 3), (k, 3, 3)
+    The poses and covariances go into arrays that double when full (as the filter's own
+    storage does): a run of thousands of events keeps three arrays, not thousands of small
+    ones."""
+
+    def __init__(self, t0: float, filt, capacity: int = 1024):
+        self._n = 0
+        self._t, self._x, self._P = np.empty(capacity), np.empty((capacity, 3)), np.empty(
+            (capacity, 3, 3))
+        self.kind: list[str] = []
         self.reports: list[tuple[float, UpdateReport]] = []
+        self.record(t0, "start", filt)
+
+    @property
+    def t(self) -> list[float]:
+        """The recorded times so far."""
+        return self._t[:self._n].tolist()
 
     def record(self, t: float, kind: str, filt, report: UpdateReport | None = None) -> None:
         """Log the filter's pose after an event at time ``t`` (and the update's report)."""
-        self.t.append(float(t))
+        i = self._n
+        if i == self._t.shape[0]:                                   # full: double the storage
+            self._t, self._x, self._P = (np.concatenate([a, np.empty_like(a)])
+                                         for a in (self._t, self._x, self._P))
+        self._t[i], self._x[i], self._P[i] = t, filt.pose, filt.pose_cov
+        self._n = i + 1
         self.kind.append(kind)
-        self._x.append(filt.pose[None])
-        self._P.append(filt.pose_cov[None])
         if report is not None:
             self.reports.append((float(t), report))
 
     def trace(self, run: Run, filt, **extra) -> Trace:
         """The :class:`Trace`, with the run's truth at the logged times."""
-        t = np.array(self.t)
-        return Trace(t=t, kind=np.array(self.kind), x=np.concatenate(self._x),
-                     P=np.concatenate(self._P), truth=run.truth_at(t), reports=self.reports,
-                     filter=filt, **extra)
+        n = self._n
+        t = self._t[:n].copy()
+        return Trace(t=t, kind=np.array(self.kind), x=self._x[:n].copy(), P=self._P[:n].copy(),
+                     truth=run.truth_at(t), reports=self.reports, filter=filt, **extra)
 
 
 def run_filter(run: Run, filt, *, by: str = "capture", use_sensor_R: bool = True,

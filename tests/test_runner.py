@@ -111,3 +111,28 @@ def test_the_runners_give_each_step_the_runs_own_q(run, monkeypatch):
     np.testing.assert_array_equal(dr.filter.P, d.P)
     same_Q = runner.slam(run, max_time=12.0, Q=run.Q())
     assert not np.array_equal(same_Q.filter.P, f.P)
+
+
+def test_the_trace_holds_every_events_pose_as_the_filter_had_it(run):
+    # the recorder writes into arrays that double when full (1024, 2048, 4096 rows here):
+    # every row must be the pose and covariance the filter had right after that event
+    sensor = run.sensor()
+    f = EKFSLAM(run.start_pose, runner.DEFAULT_P0, run.Q(), sensor.R(2.0),
+                wheel_base=run.wheel_base, gate=0.95)
+    rec = runner.TraceRecorder(run.enc_t[0], f, capacity=1024)
+    seen = [(float(run.enc_t[0]), f.pose, f.pose_cov)]
+    for ev in run.events():
+        if ev.kind == "predict":
+            f.predict(ev.u, ev.dt)
+            rec.record(ev.t, "predict", f)
+        elif len(ev.obs):
+            rec.record(ev.t, "update", f, f.update(ev.obs.ids, ev.obs.z))
+        else:
+            continue
+        seen.append((ev.t, f.pose, f.pose_cov))
+    tr = rec.trace(run, f)
+    assert len(seen) > 2048 and tr.x.shape == (len(seen), 3) and tr.P.shape == (len(seen), 3, 3)
+    assert tr.t.tolist() == [t for t, _, _ in seen]
+    np.testing.assert_array_equal(tr.x, [x for _, x, _ in seen])
+    np.testing.assert_array_equal(tr.P, [P for _, _, P in seen])
+    assert tr.kind[0] == "start" and len(tr.reports) == int(np.sum(tr.kind == "update"))
