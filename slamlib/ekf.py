@@ -454,10 +454,11 @@ class EKFLocalization:
 
     def _positions(self, ids) -> np.ndarray:
         """The landmarks' positions (k, 2): the known map's, or the state's."""
+        ids = np.asarray(ids).tolist()
         if not self._can_add:
-            return np.array([self._map[int(i)] for i in ids]).reshape(-1, 2)
-        s = np.array([self._slot[int(i)] for i in ids], dtype=np.int64)
-        return self._x[s[:, None] + (0, 1)]
+            return np.array([self._map[i] for i in ids]).reshape(-1, 2)
+        slots = [self._slot[i] for i in ids]
+        return np.array([self._x[s:s + 2] for s in slots]).reshape(-1, 2)
 
     # ------------------------------------------------------------------ the hooks
     def reading_model(self, pose: np.ndarray, positions: np.ndarray

@@ -300,8 +300,11 @@ def reobservation(trace: runner.Trace, marker_id: int | None = None) -> Reobserv
         if not trace.filter.landmark_ids:
             raise ValueError("trace: the filter mapped no landmark")
         marker_id = int(trace.filter.landmark_ids[0])
-    seen = [(t, rep, int(np.flatnonzero(rep.ids == marker_id)[0]))
-            for t, rep in trace.reports if np.any(rep.ids == marker_id)]
+    seen = []                                           # (time, report, its reading's index)
+    for t, rep in trace.reports:
+        read = rep.ids.tolist()
+        if marker_id in read:
+            seen.append((t, rep, read.index(marker_id)))
     nan = float("nan")
     if len(seen) < 2:
         return Reobservation(marker_id, seen[0][0] if seen else nan, nan, nan, nan, "never",
