@@ -41,3 +41,22 @@ def test_plot_error_comparison_draws_the_position_error_norm():
     np.testing.assert_allclose(axes[0].lines[0].get_ydata(), [0.5, 0.0])
     np.testing.assert_allclose(axes[1].lines[0].get_ydata(), np.degrees([0.1, -0.2]))
     plt.close(fig)
+
+
+def test_plot_errors_against_draws_both_runs_and_one_band():
+    class T:
+        def __init__(self, scale):
+            self.t = np.array([0.0, 1.0, 2.0])
+            self.error = scale * np.array([[0.1, 0.2, 0.01], [0.0, -0.1, 0.02], [0.3, 0.0, -0.03]])
+            self.sigma = np.full((3, 3), 0.2)
+
+    run, ref = T(1.0), T(-2.0)
+    fig, axes = plots_ch05.plot_errors_against(run, ref, label="run", reference_label="ref")
+    assert len(axes) == 3
+    for i, ax in enumerate(axes):
+        np.testing.assert_allclose(ax.lines[0].get_ydata(), ref.error[:, i])   # grey, underneath
+        np.testing.assert_allclose(ax.lines[1].get_ydata(), run.error[:, i])
+        assert len(ax.collections) == 1                                       # only the run's band
+    labels = axes[0].get_legend_handles_labels()[1]
+    assert labels[:2] == ["ref", "run"]
+    plt.close(fig)

@@ -9,7 +9,7 @@ import numpy as np
 
 from .plots import DPI
 
-__all__ = ["plot_map_errors", "plot_nees_per_run", "plot_nees_monte_carlo"]
+__all__ = ["plot_map_errors", "plot_errors_against", "plot_nees_per_run", "plot_nees_monte_carlo"]
 
 
 def plot_map_errors(ax, filt, world, *, threshold: float = 0.3, color: str = "tab:purple",
@@ -50,6 +50,41 @@ def plot_map_errors(ax, filt, world, *, threshold: float = 0.3, color: str = "ta
     if legend:
         ax.legend(loc="upper left", bbox_to_anchor=(1.02, 1.0), fontsize=8)
     return misplaced, spurious
+
+def plot_errors_against(trace, reference, *, label: str, reference_label: str,
+                        nsigma: float = 2.0, axes=None, title: str | None = None):
+    """x, y, theta errors of one run with its ``nsigma`` bands, and another run's errors in grey.
+
+    Shows what differs between two runs of the same drive without drawing the
+    second run's figure again (chapter 05: the median run of a Monte-Carlo study
+    against the recorded run, whose own bands are in an earlier figure).
+
+    Parameters
+    ----------
+    trace : Trace
+        The run drawn in full: its errors (blue) and its bands (gold).
+    reference : Trace
+        The run drawn for comparison: its errors only, as a thin grey line.
+    label, reference_label : str
+        Legend labels of the two runs.
+
+    Returns
+    -------
+    (Figure, array of 3 Axes)
+    """
+    from .plots import plot_pose_errors
+
+    if axes is None:
+        fig, axes = plt.subplots(3, 1, sharex=True, figsize=(8, 5.4), dpi=DPI)
+    fig = axes[0].figure
+    for i, ax in enumerate(axes):
+        ax.plot(reference.t, reference.error[:, i], color="0.55", lw=0.8,
+                label=reference_label)
+    plot_pose_errors(trace.t, trace.error, trace.sigma, nsigma=nsigma, axes=axes, label=label,
+                     title=title)
+    fig.tight_layout()
+    return fig, axes
+
 
 def plot_nees_per_run(study, single=None, *, axes=None, single_label: str = "the recorded run"):
     """Each run's time-averaged NEES, pose and heading, against the Monte-Carlo mean (chapter 05).
