@@ -28,6 +28,7 @@ Studies and chapter helpers:
 - ``graph_mrclam``       chapter 11's EKF / iSAM2 / batch on the MRCLAM robots (``data/studies``)
 - ``trace_readings``     a trace's readings end to end in flat arrays, by status, and their counts
 - ``tables``             aligned tables of results (headers, rows, one format per column)
+- ``listings``           library source as a chapter prints it: the running code minus its docstring
 - ``inline_figures``     a notebook's figures as pixel-doubled PNGs (called on import, below)
 """
 
