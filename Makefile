@@ -10,9 +10,11 @@ NBVAL  := --nbval --nbval-current-env --nbval-sanitize-with tests/nbval_sanitize
 SETUP  := $(if $(filter file,$(origin PY)),$(STAMP))
 # matplotlib refuses an unknown MPLBACKEND at import; the course chooses its own backends
 unexport MPLBACKEND
-# numpy's AVX-512 code (its own sin, cos, arctan2, ...) rounds some results differently in the
-# last bit from the AVX2 code most machines run: with it off, every target computes the same
-# bytes (notebooks, stored studies) on a machine with AVX-512 as on one without
+# numpy's AVX-512 code (its own arctan2, exp, log, ...) rounds some results differently in the
+# last bit from the C library, which the AVX2 machines and numba's compiled code use: with it
+# off, every target computes the same bytes (notebooks, stored studies) on a machine with
+# AVX-512 as on one without. (A name numpy does not know is ignored with a hidden warning:
+# harmless elsewhere; tests/test_makefile.py checks the effect.)
 export NPY_DISABLE_CPU_FEATURES := X86_V4 AVX512_ICL AVX512_SPR
 
 .PHONY: venv figures test lint unit nbval notebooks notebooks-failed check-notebooks book \

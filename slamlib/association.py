@@ -83,23 +83,27 @@ def solve_lower(L: np.ndarray, B: np.ndarray) -> np.ndarray:
 def individual_d2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     """Squared Mahalanobis distance ``d2 = y' S^-1 y`` of 2-vectors (chapters 03, 05, 09).
 
-    The one formula of the chi-square gate: every reading's against its own
-    landmark (:func:`slamlib.ekf.gate`, shapes (m, 2) and (m, 2, 2)), and every
-    (reading, landmark) pair's without ids (shapes (k, N, 2) and (k, N, 2, 2)).
-    ``S`` is symmetric, so its inverse is ``[[s22, -s12], [-s12, s11]] / det``.
-    Compiled by numba; it takes arrays of floats.
+    The one formula of the chi-square gate, for each reading against its own
+    landmark (:func:`slamlib.ekf.gate`: shapes (m, 2) and (m, 2, 2)) and, without
+    ids, for every pair of a reading and a landmark (shapes (k, N, 2) and
+    (k, N, 2, 2)). ``S`` is symmetric, so its inverse is
+    ``[[s22, -s12], [-s12, s11]] / det`` (only ``s12`` is read). Compiled by numba;
+    it takes arrays of floats.
 
     Parameters
     ----------
     y : numpy.ndarray, shape (..., 2)
         Innovations ``y = z - h``, bearing wrapped to [-pi, pi).
     S : numpy.ndarray, shape (..., 2, 2)
-        Their covariances ``S = H P H' + R``.
+        Their covariances ``S = H P H' + R``, positive definite.
 
     Returns
     -------
     numpy.ndarray, shape (...)
+        ``d2`` of each vector (inf or NaN where ``S`` is singular: outside any gate).
     """
+    if y.shape[-1] != 2 or S.shape[-1] != 2 or S.shape[-2] != 2:
+        raise ValueError("individual_d2: expected y (..., 2) and S (..., 2, 2)")
     s11, s12, s22 = S[..., 0, 0], S[..., 0, 1], S[..., 1, 1]     # S = [[s11, s12], [s12, s22]]
     det = s11 * s22 - s12 * s12                 # S^-1 = [[s22, -s12], [-s12, s11]] / det
     y0, y1 = y[..., 0], y[..., 1]

@@ -4,7 +4,9 @@
 itself, the code a chapter prints with ``inspect.getsource``. The machine code is
 cached beside the source when that folder (or numba's user cache) is writable;
 otherwise it is compiled once per process (a read-only install and HOME). With
-``NUMBA_DISABLE_JIT=1`` the same functions run as Python, with the same results.
+``NUMBA_DISABLE_JIT=1`` the same functions run as Python, with the same results for float
+arrays: to the last bit where numpy's arithmetic is the C library's (numpy's AVX-512 code off,
+as every make target sets it; ``bench/README.md``).
 """
 
 from __future__ import annotations

@@ -373,7 +373,7 @@ def range_bearing(dx, dy, theta):
     -------
     (rho, beta)
     """
-    return np.hypot(dx, dy), _wrap(np.arctan2(dy, dx) - theta)   # (_wrap: wrap, compiled)
+    return np.hypot(dx, dy), _wrap(np.arctan2(dy, dx) - theta)   # _wrap = compiled(wrap)
 
 
 @compiled
@@ -404,7 +404,7 @@ def observe_landmarks(pose, landmarks) -> tuple[np.ndarray, np.ndarray, np.ndarr
     -------
     (h, H_pose, H_landmark) : arrays of shapes (k, 2), (k, 2, 3), (k, 2, 2)
     """
-    L = np.ascontiguousarray(landmarks).reshape(-1, 2)
+    L = np.ascontiguousarray(landmarks).reshape(-1, 2)      # (numba reshapes contiguous arrays)
     dx, dy = L[:, 0] - pose[0], L[:, 1] - pose[1]
     r, beta = range_bearing(dx, dy, pose[2])                # h = [r, beta]
     q = dx * dx + dy * dy

@@ -159,9 +159,9 @@ class TraceRecorder:
     ones."""
 
     def __init__(self, t0: float, filt, capacity: int = 1024):
-        self._n = 0
-        self._t, self._x, self._P = np.empty(capacity), np.empty((capacity, 3)), np.empty(
-            (capacity, 3, 3))
+        self._n, capacity = 0, max(1, int(capacity))
+        self._t, self._x, self._P = (np.empty(capacity), np.empty((capacity, 3)),
+                                     np.empty((capacity, 3, 3)))
         self.kind: list[str] = []
         self.reports: list[tuple[float, UpdateReport]] = []
         self.record(t0, "start", filt)

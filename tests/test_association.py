@@ -408,3 +408,8 @@ def test_individual_d2_is_y_S_inverse_y(shape):
     S = A @ np.swapaxes(A, -1, -2) + 0.1 * np.eye(2)
     want = np.einsum("...i,...ij,...j->...", y, np.linalg.inv(S), y)
     np.testing.assert_allclose(asc.individual_d2(y, S), want, rtol=1e-12)
+
+
+def test_individual_d2_refuses_vectors_that_are_not_2d():
+    with pytest.raises(ValueError, match="y \\(..., 2\\)"):
+        asc.individual_d2(np.ones((4, 3)), np.broadcast_to(np.eye(3), (4, 3, 3)))

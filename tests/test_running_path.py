@@ -23,7 +23,8 @@ from slamlib.confirmation import ConfirmedSLAM
 #: What each chapter prints (inspect.getsource), by chapter.
 PRINTED = {
     "03": [models.observe_landmarks, models.range_bearing, ekf.innovation,
-           ekf.stacked_jacobian, ekf.innovation_covariance, ekf.gate, ekf.joint_update],
+           ekf.stacked_jacobian, ekf.innovation_covariance, ekf.gate, association.individual_d2,
+           ekf.joint_update],
     "04": [models.inverse_observe, models.inverse_observation_jacobians, ekf.augment,
            ekf.landmark_covariance, ekf.predict],
     "05": [ekf.EKFSLAM.predict, ekf.EKFSLAM._update_ids, ekf.EKFSLAM._gate_ids,
@@ -95,9 +96,10 @@ def test_compiled_functions_are_the_printed_ones():
     import numba
 
     for fn in (ekf.predict, ekf.innovation, ekf.stacked_jacobian, ekf.innovation_covariance,
-               ekf.gate):
+               ekf.gate, models.observe_landmarks, models.range_bearing,
+               association.individual_d2):
         assert isinstance(fn, numba.core.dispatcher.Dispatcher), fn
-        assert fn.py_func.__module__ == "slamlib.ekf" and fn.py_func.__name__ == fn.__name__
+        assert fn.py_func.__module__ == fn.__module__ and fn.py_func.__name__ == fn.__name__
         assert inspect.getsource(fn) == inspect.getsource(fn.py_func)
 
 

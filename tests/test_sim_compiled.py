@@ -14,7 +14,7 @@ from pathlib import Path
 
 import numpy as np
 import pytest
-from libm_rounding import NUMPY_ROUNDS_AS_LIBM
+from libm_rounding import NUMPY_ROUNDS_AS_LIBM, WHY
 
 from slamlib import ekf, models, runner, sim
 from slamlib.ekf import EKFSLAM
@@ -133,18 +133,26 @@ def test_compiled_ekf_steps_give_numpys_numbers(n_landmarks):
         S = ekf.innovation_covariance(P, idx, H, ekf.block_diagonal(R))[1]
         y = ekf.innovation(z, h)
         _same(ekf.gate(y, S, 5.991), ekf.gate.py_func(y, S, 5.991))
-        if NUMPY_ROUNDS_AS_LIBM:                         # h and H; the sensors' 2-D range_bearing
-            lm = x[slots[:, None] + (0, 1)]
-            _same(models.observe_landmarks(x[:3], lm), models.observe_landmarks.py_func(x[:3], lm))
-            lm[1] = x[:2]                                # a landmark on the robot: NaN rows
-            got = models.observe_landmarks(x[:3], lm)
-            assert [int(np.isnan(a).sum()) for a in got] == [2, 4, 4]      # h, H_pose, H_l
-            for a, b in zip(got, models.observe_landmarks.py_func(x[:3], lm)):
-                assert np.array_equal(a, b, equal_nan=True)
-            d = rng.normal(size=(2, 7, m))
-            th = rng.normal(size=(7, 1))
-            _same(models.range_bearing(d[0], d[1], th),
-                  models.range_bearing.py_func(d[0], d[1], th))
+        lm = x[slots[:, None] + (0, 1)]                  # h and H (py_func: numpy around the
+        _same(models.observe_landmarks(x[:3], lm),       # compiled range_bearing, tested below)
+              models.observe_landmarks.py_func(x[:3], lm))
+        lm[1] = x[:2]                                    # a landmark on the robot: NaN rows
+        got = models.observe_landmarks(x[:3], lm)
+        assert [int(np.isnan(a).sum()) for a in got] == [2, 4, 4]          # h, H_pose, H_l
+        for a, b in zip(got, models.observe_landmarks.py_func(x[:3], lm)):
+            assert np.array_equal(a, b, equal_nan=True)
+
+
+def test_compiled_range_bearing_gives_numpys_numbers():
+    """The bearing's arctan2: numba calls the C library's, numpy its own code; they agree to
+    the last bit where numpy's AVX-512 code is off (every make target; tests/libm_rounding.py),
+    on the filters' 1-D arrays and the sensors' 2-D broadcast alike."""
+    if not NUMPY_ROUNDS_AS_LIBM:
+        pytest.skip(WHY)
+    rng = np.random.default_rng(7)
+    for shape, th in (((50,), 0.3), ((7, 9), rng.normal(size=(7, 1)))):
+        d = rng.normal(size=(2,) + shape) * 3.0
+        _same(models.range_bearing(d[0], d[1], th), models.range_bearing.py_func(d[0], d[1], th))
 
 
 def _same(a, b) -> None:
