@@ -100,7 +100,8 @@ def individual_d2(y: np.ndarray, S: np.ndarray) -> np.ndarray:
     Returns
     -------
     numpy.ndarray, shape (...)
-        ``d2`` of each vector (inf or NaN where ``S`` is singular: outside any gate).
+        ``d2`` of each vector: inf or NaN where ``S`` is singular (outside any gate); for one
+        vector, shapes (2,) and (2, 2), a float, and a singular ``S`` raises ZeroDivisionError.
     """
     if y.shape[-1] != 2 or S.shape[-1] != 2 or S.shape[-2] != 2:
         raise ValueError("individual_d2: expected y (..., 2) and S (..., 2, 2)")

@@ -235,9 +235,8 @@ def plot_exploration(ax, exploration, world=None, *, ellipse_every: float = 20.0
         ax.plot(tr.x[tr.t >= cut[0], 0], tr.x[tr.t >= cut[0], 1], zorder=1.5, gid="cut_off",
                 **CUT_OFF_STYLE)
         if world is not None and cut[1] in set(world.ids.tolist()):
-            ax.plot(*world.marker(cut[1]).position, "o", mfc="none", mec="tab:orange", ms=14,
-                    mew=1.2, ls="none", dashes=(2, 1.5), label="anchor of the cut-off return",
-                    zorder=5)
+            ax.plot(*world.marker(cut[1]).position, "D", mfc="none", mec="tab:orange", ms=13,
+                    mew=1.5, ls="none", label="anchor of the cut-off return", zorder=5)
     ax.plot(*tr.truth[-1, :2], "s", color="k", ms=5, label="end (truth)")
     return finish_top_view(ax, title, legend_outside)
 
