@@ -46,6 +46,13 @@ def test_the_sketch_draws_the_rules_own_anchor_and_goals():
     ax = plots_ch07.plot_return_rule(sketch=sk)
     assert ax.yaxis_inverted()                       # seen from above, y down
     np.testing.assert_allclose(_by_gid(ax, "anchor").get_xydata(), [a])
+    # the landmarks are the filter's estimates: drawn as the course's mapped landmarks (blue +),
+    # not as black stars (true markers)
+    marks = _by_gid(ax, "landmarks")
+    assert marks.get_marker() == "+" and marks.get_color() == "tab:blue"
+    np.testing.assert_allclose(marks.get_xydata(), [p for p, _, _ in sk.landmarks.values()])
+    assert not [ln for ln in ax.get_lines() if ln.get_marker() == "*"]
+    assert any("landmark" in t.get_text() for t in ax.texts if "too uncertain" in t.get_text())
     np.testing.assert_allclose(_by_gid(ax, "view").get_xydata(), [view])
     np.testing.assert_allclose(_by_gid(ax, "closer").get_xydata(), [closer])
     np.testing.assert_allclose(_by_gid(ax, "return_distance").get_xydata(), [a, view])

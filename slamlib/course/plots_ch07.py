@@ -97,7 +97,8 @@ def return_rule_sketch(explorer: Explorer | None = None) -> ReturnSketch:
         3: ((3.9, 2.6), 0.3 * sigma, deg(np.linspace(-60.0, -40.0, max(n // 3, 1)))),
         4: ((0.7, -1.7), 0.2 * sigma, deg(np.linspace(20.0, 70.0, 3 * n))),
     }
-    notes = {2: "too uncertain:\n" + r"$\sigma$ > anchor_ratio $\cdot\,\sigma_{xy}$",
+    notes = {2: "too uncertain:\n"
+                + r"$\sigma_{\mathrm{landmark}}$ > anchor_ratio $\cdot\,\sigma_{xy}$",
              3: "seen in fewer than\nmin_sightings frames",
              4: "qualifies, but farther"}
     ex.reset(SimpleNamespace(bounds=(-1.0, 7.0, -3.0, 4.0)))
@@ -115,12 +116,13 @@ def return_rule_sketch(explorer: Explorer | None = None) -> ReturnSketch:
 def plot_return_rule(ax=None, sketch: ReturnSketch | None = None):
     """Draw the return rule's geometry (chapter 07, section 3) on a top view; returns ``ax``.
 
-    The robot with its ``sigma_xy`` circle; the landmarks (stars), the reason each but the
-    anchor is passed over; the anchor's sightings (grey rays, landmark towards robot); the
-    line of length ``return_distance`` along their mean direction to the ``view`` goal; the
-    ``approach`` to the ``closer`` goal; the path of the return (orange, dotted). Artists carry
-    a ``gid`` (``"robot"``, ``"sigma_xy"``, ``"anchor"``, ``"sightings"``, ``"return_distance"``,
-    ``"view"``, ``"closer"``, ``"path"``) so that tests can find them.
+    The robot with its ``sigma_xy`` circle; the filter's landmark estimates (blue plus signs,
+    the course's sign for mapped landmarks) and the reason each but the anchor is passed
+    over; the anchor's sightings (grey rays, landmark towards robot); the line of length
+    ``return_distance`` along their mean direction to the ``view`` goal; the ``approach`` to
+    the ``closer`` goal; the path of the return (orange, dotted). Artists carry a ``gid``
+    (``"robot"``, ``"sigma_xy"``, ``"landmarks"``, ``"anchor"``, ``"sightings"``,
+    ``"return_distance"``, ``"view"``, ``"closer"``, ``"path"``) so that tests can find them.
     """
     sk = sketch if sketch is not None else return_rule_sketch()
     if ax is None:
@@ -139,9 +141,13 @@ def plot_return_rule(ax=None, sketch: ReturnSketch | None = None):
                 sk.pose[:2], xytext=(sk.pose[0] - 0.9, sk.pose[1] - 0.75), fontsize=9,
                 arrowprops={"arrowstyle": "-", "color": "0.4", "lw": 0.6})
     # the landmarks and why all but one are passed over
+    # the filter's landmark estimates: blue plus signs, as the mapped landmarks everywhere in
+    # the course (black stars are true markers)
+    pts = np.array([p for p, _, _ in sk.landmarks.values()], dtype=float)
+    ax.plot(pts[:, 0], pts[:, 1], "+", color="tab:blue", ms=12, mew=2, ls="none", zorder=5,
+            gid="landmarks", label="landmarks (the filter's estimates)")
     for i, (p, _, _) in sk.landmarks.items():
         p = np.asarray(p, dtype=float)
-        ax.plot(*p, "*", color="k", ms=11, zorder=5)
         if i in sk.notes:
             ax.annotate(sk.notes[i], p, xytext=(p[0] + 0.2, p[1] - 0.2), fontsize=8.5,
                         color="0.3", va="bottom")
@@ -172,7 +178,7 @@ def plot_return_rule(ax=None, sketch: ReturnSketch | None = None):
             label="the return's path: to view, then closer")
     ax.set_xlim(-0.3, 7.3)
     ax.set_ylim(3.1, -2.5)
-    ax.legend(loc="upper right", fontsize=8)
+    ax.legend(loc="upper center", bbox_to_anchor=(0.5, -0.13), ncol=2, fontsize=8)  # below
     ax.set_title(f"the return rule (min_sightings = {ex.min_sightings}; "
                  "to scale)", fontsize=10)
     return ax
