@@ -59,4 +59,22 @@ def test_plot_errors_against_draws_both_runs_and_one_band():
         assert len(ax.collections) == 1                                       # only the run's band
     labels = axes[0].get_legend_handles_labels()[1]
     assert labels[:2] == ["ref", "run"]
+    assert labels[2] == "$\\pm2\\sigma$"                                   # the default band label
+    plt.close(fig)
+
+
+def test_plot_errors_against_names_the_band():
+    class T:
+        def __init__(self, scale):
+            self.t = np.array([0.0, 1.0, 2.0])
+            self.error = scale * np.array([[0.1, 0.2, 0.01], [0.0, -0.1, 0.02], [0.3, 0.0, -0.03]])
+            self.sigma = np.full((3, 3), 0.2)
+
+    fig, axes = plots_ch05.plot_errors_against(T(1.0), T(-2.0), label="run", reference_label="ref",
+                                               band_label="run's band")
+    for ax in axes:
+        assert len(ax.collections) == 1
+        assert ax.collections[0].get_label() == "run's band"
+    legend = [t.get_text() for t in axes[0].get_legend().get_texts()]
+    assert legend == ["ref", "run", "run's band"]
     plt.close(fig)

@@ -52,7 +52,8 @@ def plot_map_errors(ax, filt, world, *, threshold: float = 0.3, color: str = "ta
     return misplaced, spurious
 
 def plot_errors_against(trace, reference, *, label: str, reference_label: str,
-                        nsigma: float = 2.0, axes=None, title: str | None = None):
+                        band_label: str | None = None, nsigma: float = 2.0, axes=None,
+                        title: str | None = None):
     """x, y, theta errors of one run with its ``nsigma`` bands, and another run's errors in grey.
 
     Shows what differs between two runs of the same drive without drawing the
@@ -67,6 +68,8 @@ def plot_errors_against(trace, reference, *, label: str, reference_label: str,
         The run drawn for comparison: its errors only, as a thin grey line.
     label, reference_label : str
         Legend labels of the two runs.
+    band_label : str, optional
+        Legend label of the band (default ``+-nsigma sigma``): name its run when two are drawn.
 
     Returns
     -------
@@ -82,6 +85,10 @@ def plot_errors_against(trace, reference, *, label: str, reference_label: str,
                 label=reference_label)
     plot_pose_errors(trace.t, trace.error, trace.sigma, nsigma=nsigma, axes=axes, label=label,
                      title=title)
+    if band_label is not None:
+        for ax in axes:
+            ax.collections[-1].set_label(band_label)     # the band plot_pose_errors just drew
+        axes[0].legend(loc="upper left", fontsize=8)
     fig.tight_layout()
     return fig, axes
 
