@@ -43,14 +43,17 @@ def test_plot_error_comparison_draws_the_position_error_norm():
     plt.close(fig)
 
 
-def test_plot_errors_against_draws_both_runs_and_one_band():
-    class T:
-        def __init__(self, scale):
-            self.t = np.array([0.0, 1.0, 2.0])
-            self.error = scale * np.array([[0.1, 0.2, 0.01], [0.0, -0.1, 0.02], [0.3, 0.0, -0.03]])
-            self.sigma = np.full((3, 3), 0.2)
+class _Run:
+    """A trace with three instants: errors ``scale`` times a fixed pattern, sigma 0.2."""
 
-    run, ref = T(1.0), T(-2.0)
+    def __init__(self, scale):
+        self.t = np.array([0.0, 1.0, 2.0])
+        self.error = scale * np.array([[0.1, 0.2, 0.01], [0.0, -0.1, 0.02], [0.3, 0.0, -0.03]])
+        self.sigma = np.full((3, 3), 0.2)
+
+
+def test_plot_errors_against_draws_both_runs_and_one_band():
+    run, ref = _Run(1.0), _Run(-2.0)
     fig, axes = plots_ch05.plot_errors_against(run, ref, label="run", reference_label="ref")
     assert len(axes) == 3
     for i, ax in enumerate(axes):
@@ -64,14 +67,8 @@ def test_plot_errors_against_draws_both_runs_and_one_band():
 
 
 def test_plot_errors_against_names_the_band():
-    class T:
-        def __init__(self, scale):
-            self.t = np.array([0.0, 1.0, 2.0])
-            self.error = scale * np.array([[0.1, 0.2, 0.01], [0.0, -0.1, 0.02], [0.3, 0.0, -0.03]])
-            self.sigma = np.full((3, 3), 0.2)
-
-    fig, axes = plots_ch05.plot_errors_against(T(1.0), T(-2.0), label="run", reference_label="ref",
-                                               band_label="run's band")
+    fig, axes = plots_ch05.plot_errors_against(_Run(1.0), _Run(-2.0), label="run",
+                                               reference_label="ref", band_label="run's band")
     for ax in axes:
         assert len(ax.collections) == 1
         assert ax.collections[0].get_label() == "run's band"
