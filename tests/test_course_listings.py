@@ -6,8 +6,9 @@ import textwrap
 
 import pytest
 
-from slamlib import association, ekf, models
+from slamlib import association, ekf, models, vision
 from slamlib.course.listings import without_docstring
+from slamlib.datasets import mrclam
 
 
 def _plain(obj):
@@ -55,6 +56,16 @@ def test_chapter_03_listings_are_the_running_functions_without_their_docstrings(
         assert '"""' not in out and out.startswith("@compiled\ndef ")
     out = without_docstring(models.observe_landmarks)
     assert "H_pose[:, :, :2] = -H_landmark" in out and "return h, H_pose, H_landmark" in out
+
+
+@pytest.mark.parametrize("obj", [vision.camera_to_range_bearing,                     # chapter 02
+                                 models.inverse_observation_jacobians, ekf.augment,   # chapter 04
+                                 ekf.landmark_covariance, ekf.predict,
+                                 mrclam.commands_to_wheel_speeds])                    # chapter 10
+def test_other_chapters_listings_are_the_running_functions_without_their_docstrings(obj):
+    _check(obj)
+    out = without_docstring(obj)
+    assert '"""' not in out and out.startswith(("def ", "@compiled\ndef "))
 
 
 @pytest.mark.parametrize("module", [models, ekf, association])
