@@ -59,7 +59,8 @@ __all__ = ["pose_to_gtsam", "pose_from_gtsam", "pose_cov_to_gtsam", "pose_cov_fr
            "point_to_gtsam", "point_from_gtsam", "point_cov_to_gtsam", "point_cov_from_gtsam",
            "reading_to_gtsam", "integrate_odometry", "Odometry", "Problem", "build_problem",
            "factor_graph", "smooth", "GraphMap", "GraphTrace", "information_matrix", "METHODS",
-           "ROBUST", "ROBUST_K", "batch_marginals"]
+           "ROBUST", "ROBUST_K", "batch_marginals", "variable_ordering",
+           "unobservable_directions"]
 
 #: The solvers of :func:`smooth`.
 METHODS = ("batch", "isam2")
@@ -673,13 +674,90 @@ def information_matrix(trace: GraphTrace) -> tuple[np.ndarray, list[str]]:
     changes signs, never which entries are zero). Returns it with one label
     per block (``"x0"``..., ``"l21"``...).
     """
-    problem = trace.problem
-    keys = [pose_key(i) for i in range(problem.n_poses)]
-    keys += [landmark_key(m) for m in trace.landmark_ids]
-    ordering = gtsam.Ordering()
-    for k in keys:
-        ordering.push_back(k)
-    lin = trace.graph.linearize(trace.values)
-    A, _ = lin.jacobian(ordering)
-    labels = [f"x{i}" for i in range(problem.n_poses)] + [f"l{m}" for m in trace.landmark_ids]
+    n_poses = trace.problem.n_poses
+    A, _ = trace.graph.linearize(trace.values).jacobian(variable_ordering(trace))
+    labels = [f"x{i}" for i in range(n_poses)] + [f"l{m}" for m in trace.landmark_ids]
     return A.T @ A, labels
+
+
+def variable_ordering(trace: GraphTrace) -> gtsam.Ordering:
+    """The variables of ``trace``'s graph: the poses in time order, then the landmarks
+    in the order first read (the columns of :func:`information_matrix`)."""
+    ordering = gtsam.Ordering()
+    for i in range(trace.problem.n_poses):
+        ordering.push_back(pose_key(i))
+    for m in trace.landmark_ids:
+        ordering.push_back(landmark_key(m))
+    return ordering
+
+
+def unobservable_directions(factors, points, ordering, *, rtol: float = 1e-10,
+                            n_smallest: int = 4) -> tuple[int, np.ndarray]:
+    """How many directions a linearised factor graph holds no information about (chapter 11).
+
+    Each factor is linearised, the whitened Jacobian ``A`` of all of them is stacked
+    (one column per scalar of the variables in ``ordering``), and a direction ``v`` with
+    ``A v = 0`` changes no residual to first order: the linearised problem cannot see
+    it. Their number is the dimension of the null space of ``A``, counted from its
+    singular values.
+
+    Linearised at one point, a graph of odometry and range-bearing factors without a
+    prior has three (the whole estimate shifted in x and y, and turned). Linearised with
+    a landmark's factors at different points, as EKF SLAM's moving estimates do, the
+    turn is no longer in the null space: the linearised problem "sees" the heading.
+
+    Parameters
+    ----------
+    factors : gtsam.NonlinearFactorGraph or iterable of gtsam.NonlinearFactor
+        The factors (leave the prior out to count what the readings cannot see).
+    points : gtsam.Values or callable
+        Where to linearise: one ``Values`` for every factor, or a function
+        ``factor -> Values`` called once per factor, in order (each factor at its own point).
+    ordering : gtsam.Ordering or sequence of int
+        The keys of the variables: exactly the keys the factors touch.
+    rtol : float
+        A singular value below ``rtol`` times the largest counts as zero.
+    n_smallest : int
+        How many of the smallest singular values to return.
+
+    Returns
+    -------
+    count : int
+        The number of unobservable directions (the nullity of ``A``).
+    smallest : ndarray, shape (n_smallest,)
+        The ``n_smallest`` smallest singular values of ``A`` over the largest, in
+        decreasing order (a direction with no rows at all counts as 0).
+    """
+    if isinstance(factors, gtsam.NonlinearFactorGraph):
+        factors = [factors.at(i) for i in range(factors.size())]
+    factors = list(factors)
+    if not factors:
+        raise ValueError("factors: expected at least one factor, got none")
+    if not (np.isfinite(rtol) and 0.0 < rtol < 1.0):
+        raise ValueError(f"rtol: expected a number in (0, 1), got {rtol!r}")
+    if isinstance(ordering, gtsam.Ordering):
+        keys = [ordering.at(i) for i in range(ordering.size())]
+    else:
+        keys = [int(k) for k in ordering]
+        ordering = gtsam.Ordering()
+        for k in keys:
+            ordering.push_back(k)
+    touched = {k for fac in factors for k in fac.keys()}
+    if len(set(keys)) != len(keys) or set(keys) != touched:
+        raise ValueError("ordering: expected each key the factors touch exactly once; "
+                         f"missing {sorted(touched - set(keys))}, not touched "
+                         f"{sorted(set(keys) - touched)}, {len(keys) - len(set(keys))} repeated")
+    at = points if callable(points) else (lambda fac: points)
+    lin = gtsam.GaussianFactorGraph()
+    for fac in factors:
+        lin.push_back(fac.linearize(at(fac)))
+    A = lin.jacobian(ordering)[0]
+    n_smallest = int(n_smallest)
+    if not 1 <= n_smallest <= A.shape[1]:
+        raise ValueError(f"n_smallest: expected 1 to {A.shape[1]} (the columns), "
+                         f"got {n_smallest}")
+    sv = np.linalg.svd(A, compute_uv=False)
+    sv = np.concatenate([sv, np.zeros(A.shape[1] - sv.size)])   # fewer rows than columns
+    if sv[0] == 0.0:
+        return A.shape[1], np.zeros(n_smallest)
+    return int(np.sum(sv < rtol * sv[0])), sv[-n_smallest:] / sv[0]
