@@ -701,8 +701,9 @@ def unobservable_directions(factors, points, ordering, *, rtol: float = 1e-10,
     it. Their number is the dimension of the null space of ``A``, counted from its
     singular values.
 
-    Linearised at one point, a graph of odometry and range-bearing factors without a
-    prior has three (the whole estimate shifted in x and y, and turned). Linearised with
+    Linearised at one point, a connected graph of odometry and range-bearing factors
+    without a prior, in which every landmark is read from poses that fix it, has three (the
+    whole estimate shifted in x and y, and turned). Linearised with
     a landmark's factors at different points, as EKF SLAM's moving estimates do, the
     turn is no longer in the null space: the linearised problem "sees" the heading.
 
@@ -726,7 +727,8 @@ def unobservable_directions(factors, points, ordering, *, rtol: float = 1e-10,
         The number of unobservable directions (the nullity of ``A``).
     smallest : ndarray, shape (n_smallest,)
         The ``n_smallest`` smallest singular values of ``A`` over the largest, in
-        decreasing order (a direction with no rows at all counts as 0).
+        decreasing order; when ``A`` has fewer rows than columns, the missing singular
+        values are counted as 0.
     """
     if isinstance(factors, gtsam.NonlinearFactorGraph):
         factors = [factors.at(i) for i in range(factors.size())]
