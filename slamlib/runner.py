@@ -166,11 +166,6 @@ class TraceRecorder:
         self.reports: list[tuple[float, UpdateReport]] = []
         self.record(t0, "start", filt)
 
-    @property
-    def t(self) -> list[float]:
-        """The recorded times so far."""
-        return self._t[:self._n].tolist()
-
     def record(self, t: float, kind: str, filt, report: UpdateReport | None = None) -> None:
         """Log the filter's pose after an event at time ``t`` (and the update's report)."""
         i = self._n

@@ -157,8 +157,9 @@ def as_covariance(name: str, value, size: int | None = None, *, semidefinite: bo
             and value.shape == (2, 2) and not semidefinite):
         a, b, c, d = value.ravel().tolist()              # the usual 2x2 (Q or R of a step)
         scale = max(1.0, abs(a), abs(b), abs(c), abs(d))
+        s = 0.5 * (b + c)                                # the symmetrised off-diagonal
         if (math.isfinite(a + b + c + d) and abs(b - c) <= 1e-9 * scale and a > 0.0
-                and a * d - b * c > 1e-9 * a * d):       # clearly positive definite
+                and a * d - s * s > 1e-9 * a * d):       # clearly positive definite
             return 0.5 * (value + value.T)
     arr = as_matrix(name, value, (size, size))
     if arr.shape[0] != arr.shape[1]:
@@ -483,14 +484,16 @@ def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
 @compiled
 def _first_bad_covariance(a: np.ndarray) -> int:
     """The first of k 2x2 matrices (k, 2, 2) that is not finite, symmetric (to 1e-9 of its
-    largest entry, at least 1) and positive definite, or -1 (:func:`as_covariance`'s checks)."""
+    largest entry, at least 1) and, symmetrised, positive definite, or -1 (:func:`as_covariance`'s
+    checks: its Cholesky of ``(m + m') / 2`` exists when ``m00 > 0`` and ``m00 m11 - s^2 > 0``)."""
     for i in range(a.shape[0]):
         m = a[i]
         if not np.isfinite(m).all():
             return i
         scale = max(1.0, np.abs(m).max())
+        s = 0.5 * (m[0, 1] + m[1, 0])                       # the symmetrised off-diagonal
         if not (abs(m[0, 1] - m[1, 0]) <= 1e-9 * scale and m[0, 0] > 0.0
-                and m[0, 0] * m[1, 1] - m[0, 1] * m[1, 0] > 0.0):
+                and m[0, 0] * m[1, 1] - s * s > 0.0):
             return i
     return -1
 
