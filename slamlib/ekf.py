@@ -192,12 +192,13 @@ def diagonal_blocks(S: np.ndarray) -> np.ndarray:
     return out
 
 
-#: Up to this n, :func:`joint_update` changes P with one product (exactly symmetric: BLAS's
-#: syrk); above, a few rows per product, rows x n x 2m below 2^18, which OpenBLAS computes
-#: in one thread, at memory speed (bench/README.md).
+#: Up to this n, :func:`joint_update` changes P with one product, symmetrised; above, a few
+#: rows per product, rows x n x 2m below 2^18, which OpenBLAS computes in one thread, at memory speed
+#: (bench/README.md).
 _ONE_BLOCK, _PRODUCT = 512, 1 << 18
 
 
+@compiled
 def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
                  y: np.ndarray) -> float:
     """One joint EKF update with m readings stacked, in place (report V.C, chapters 03, 05).
@@ -209,20 +210,28 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
     blocks of rows, one read and one write of each entry, O(n^2 m) (the Joseph form
     ``(I - K H) P (I - K H)' + K R K'`` at the optimal gain). Returns the joint NIS
     ``y' S^-1 y`` (2m degrees of freedom). An S that is not positive definite
-    (LinAlgError) or a result that is not finite (ValueError naming ``z``) changes nothing.
+    (LinAlgError) or a result that is not finite (ValueError) changes nothing. Compiled by
+    numba.
     """
+    n, m2 = P.shape[0], y.shape[0]
     L = np.linalg.cholesky(S)                               # S = L L'
-    Wv = np.linalg.solve(L, np.concatenate((PHt.T, y[:, None]), axis=1))   # L^-1 [H P, y]
-    W, v = Wv[:, :-1], Wv[:, -1]                            # K = P H' S^-1 = W' L^-1
-    if not math.isfinite(np.vdot(Wv, Wv)):                  # (then K y and K S K' are finite)
-        raise _not_finite("z", "the readings move the state by a non-finite amount")
+    HPy = np.empty((m2, n + 1))                             # [H P, y]
+    HPy[:, :n], HPy[:, n] = PHt.T, y
+    Wv = np.linalg.solve(L, HPy)                            # L^-1 [H P, y]
+    W, v = Wv[:, :n], Wv[:, n]                              # K = P H' S^-1 = W' L^-1
+    if not math.isfinite(np.sum(Wv * Wv)):                  # (then K y and K S K' are finite)
+        raise ValueError("z: the step's result is not finite (the readings move the state "
+                         "by a non-finite amount); nothing was changed")
     x += W.T @ v                                            # x = x + K y = x + W' L^-1 y
-    x[2] = wrap(x[2])                                       # (the heading back to [-pi, pi))
-    n = P.shape[0]
-    rows = n if n <= _ONE_BLOCK else max(1, _PRODUCT // (n * W.shape[0]))
-    for i in range(0, n, rows):                             # P = P - K S K' = P - W' W
-        P[i:i + rows] -= W[:, i:i + rows].T @ W
-    return float(v @ v)                                     # NIS = y' S^-1 y
+    x[2] = _wrap(x[2])                                      # (the heading back to [-pi, pi))
+    if n <= _ONE_BLOCK:                                     # P = P - K S K' = P - W' W
+        KSKt = W.T @ W
+        P -= (KSKt + KSKt.T) / 2                            # (symmetric to the last bit)
+    else:                                                   # (a few rows per product)
+        rows = max(1, _PRODUCT // (n * m2))
+        for i in range(0, n, rows):
+            P[i:i + rows] -= W[:, i:i + rows].T @ W
+    return v @ v                                            # NIS = y' S^-1 y
 
 
 def landmark_covariance(J1: np.ndarray, P_rr: np.ndarray, J2: np.ndarray, R: np.ndarray
