@@ -193,8 +193,8 @@ def diagonal_blocks(S: np.ndarray) -> np.ndarray:
 
 
 #: Up to this n, :func:`joint_update` changes P with one product, symmetrised; above, a few
-#: rows per product, rows x n x 2m below 2^18, which OpenBLAS computes in one thread, at memory speed
-#: (bench/README.md).
+#: rows per product, rows x n x 2m below 2^18, which OpenBLAS computes in one thread, at
+#: memory speed (bench/README.md).
 _ONE_BLOCK, _PRODUCT = 512, 1 << 18
 
 
@@ -522,14 +522,8 @@ class EKFLocalization:
         u, dt = _check_control(u, dt)
         Q = self._Q if Q is None else as_covariance("Q", Q, 2)
         A, W = self.jacobians("motion", u=u, dt=dt)
-        n, b = self._n, self._wheel_base
-        step = (self._x[:n], self._P[:n, :n], u, dt, b, Q, A, W)
-        if (abs(float(u[0])) + abs(float(u[1])) + 1.0) * (dt + 1.0) / b < 1e100:
-            finite = predict(*step)                # the usual case: u and dt cannot overflow
-        else:
-            with np.errstate(all="ignore"):        # an overflow is refused, without a warning
-                finite = predict(*step)
-        if not finite:
+        n = self._n                                # (compiled, an overflow makes no warning)
+        if not predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, Q, A, W):
             raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
 
     # ------------------------------------------------------------------ update
@@ -593,32 +587,40 @@ class EKFLocalization:
 
         Returns the report's fields and what :meth:`_fuse` fuses (or None)."""
         k, id_list = ids.shape[0], ids.tolist()
-        status, seen = [""] * k, set()
-        slots = self._slots(id_list)
-        for i, (mid, s) in enumerate(zip(id_list, slots)):      # association by id
-            if s is None:
+        status, seen, g, slots = [""] * k, set(), [], []
+        for i, (mid, s) in enumerate(zip(id_list, self._slots(id_list))):   # association by id
+            if s is not None:
+                g.append(i)
+                slots.append(s)
+            else:
                 status[i] = ("unknown" if not self._can_add else
                              "duplicate" if mid in seen else "new")
                 seen.add(mid)
-        g = np.array([i for i in range(k) if slots[i] is not None], dtype=np.int64)
-        if g.size:
-            h, Hp, Hl = self.jacobians("observation", ids=ids[g])    # h(x), H at the prior
-            ok = np.isfinite(h[:, 1])
-            if not ok.all():                                    # a landmark on the robot
-                for i in g[~ok]:
-                    status[i] = "degenerate"
-                g, h, Hp, Hl = g[ok], h[ok], Hp[ok], Hl[ok]
-        if g.size == 0:
+        if not g:
             return _fields(ids, z, status, self._gate, self._threshold), None
-        y = innovation(z[g], h)                                 # y = z - h(x)
-        idx, H = stacked_jacobian(np.array([slots[i] for i in g]), Hp, Hl)
-        PHt, S = innovation_covariance(self._P[:self._n, :self._n], idx, H,
-                                       block_diagonal(R[g]))
+        if len(g) < k:                                          # some readings are not gated
+            g = np.array(g, dtype=np.int64)
+            ids_g, z_g, R_g = ids[g], z[g], R[g]
+        else:                                                   # (the usual frame: all are)
+            g, ids_g, z_g, R_g = np.arange(k), ids, z, R
+        h, Hp, Hl = self.jacobians("observation", ids=ids_g)    # h(x), H at the prior
+        slots = np.array(slots, dtype=np.int64)
+        if not math.isfinite(h[:, 1].sum()):                    # a landmark on the robot
+            ok = np.isfinite(h[:, 1])
+            for i in g[~ok]:
+                status[i] = "degenerate"
+            g, z_g, R_g, h, Hp, Hl, slots = (a[ok] for a in (g, z_g, R_g, h, Hp, Hl, slots))
+            if g.size == 0:
+                return _fields(ids, z, status, self._gate, self._threshold), None
+        y = innovation(z_g, h)                                  # y = z - h(x)
+        idx, H = stacked_jacobian(slots, Hp, Hl)
+        PHt, S = innovation_covariance(self._P[:self._n, :self._n], idx, H, block_diagonal(R_g))
         d2, S_i, acc = gate(y, S, self._threshold)
-        for i, a in zip(g.tolist(), acc.tolist()):
+        accepted = acc.tolist()
+        for i, a in zip(g.tolist(), accepted):
             status[i] = "accepted" if a else "rejected"
         fields = _fields(ids, z, status, self._gate, self._threshold, g, d2, y, h, S_i, acc)
-        return fields, (PHt, S, y, acc) if acc.any() else None
+        return fields, (PHt, S, y, acc) if True in accepted else None
 
     def _fuse(self, PHt: np.ndarray, S: np.ndarray, y: np.ndarray, acc: np.ndarray) -> float:
         """The accepted readings' rows and columns of ``P H'``, ``S`` and ``y``, jointly fused."""

@@ -363,6 +363,9 @@ def as_marker_ids(ids) -> np.ndarray:
     integers or are beyond 2**53, bools and strings (also inside a list). ``None``
     (readings without ids) raises, saying which filters take it.
     """
+    if type(ids) is np.ndarray and ids.dtype == np.int64 and ids.ndim == 1 and (
+            min(ids.tolist(), default=0) >= 0):
+        return ids.copy()                   # the usual case: non-negative int64 ids
     if ids is None:
         raise ValueError("ids: None (readings without ids) needs a filter built with "
                          "association='nn' or association='jcbb'; this one has "
@@ -460,9 +463,10 @@ def _first_bad_readings(a: np.ndarray) -> tuple[int, int]:
 
 
 def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
-    """R as (k, 2, 2): one matrix for all readings or one per reading, each checked."""
+    """R as a new array (k, 2, 2): one matrix for all readings or one per reading, each
+    checked."""
     if R is None:
-        return np.broadcast_to(default, (k, 2, 2))
+        return np.broadcast_to(default, (k, 2, 2)).copy()
     if type(R) is not np.ndarray or R.dtype.kind not in "fiu":
         R = _numbers("R", R, f"a (2, 2) or ({k}, 2, 2) array of numbers")
     try:
@@ -470,7 +474,7 @@ def as_reading_covariances(R, default: np.ndarray, k: int) -> np.ndarray:
     except (TypeError, ValueError) as exc:
         raise ValueError(f"R: expected a (2, 2) or ({k}, 2, 2) array, got {R!r}") from exc
     if a.ndim == 2:
-        return np.broadcast_to(as_covariance("R", a, 2), (k, 2, 2))
+        return np.broadcast_to(as_covariance("R", a, 2), (k, 2, 2)).copy()
     if a.ndim != 3 or a.shape != (k, 2, 2):
         raise ValueError(f"R: expected shape (2, 2) or ({k}, 2, 2) for {k} readings, "
                          f"got {a.shape}")
