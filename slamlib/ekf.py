@@ -466,8 +466,8 @@ class EKFLocalization:
         ids = np.asarray(ids).tolist()
         if not self._can_add:
             return np.array([self._map[i] for i in ids]).reshape(-1, 2)
-        slots = [self._slot[i] for i in ids]
-        return np.array([self._x[s:s + 2] for s in slots]).reshape(-1, 2)
+        x = self._x
+        return np.array([(x[s], x[s + 1]) for s in [self._slot[i] for i in ids]]).reshape(-1, 2)
 
     # ------------------------------------------------------------------ the hooks
     def reading_model(self, pose: np.ndarray, positions: np.ndarray
