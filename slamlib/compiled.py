@@ -6,19 +6,23 @@ cached beside the source when that folder (or numba's user cache) is writable;
 otherwise it is compiled once per process (a read-only install and HOME). With
 ``NUMBA_DISABLE_JIT=1`` the same functions run as Python, with the same results for float
 arrays: to the last bit where numpy's arithmetic is the C library's (numpy's AVX-512 code off,
-as every make target sets it; ``bench/README.md``).
+as every make target sets it), except the joint update's, equal to rounding (numba's Cholesky
+sums in another order; ``bench/README.md``).
 """
 
 from __future__ import annotations
 
 import re
 import warnings
+from contextlib import nullcontext
+from functools import partial
 from pathlib import Path
 
 import numba
+import numpy as np
 from numba.core.errors import NumbaPerformanceWarning
 
-__all__ = ["compiled"]
+__all__ = ["compiled", "quiet_overflow"]
 
 # numba notes, once per compilation, that ``A @ P[r, m]`` on a block of P (not contiguous)
 # copies the block first: that is the block product the chapters write. numba gives the
@@ -33,3 +37,9 @@ def compiled(func):
         return numba.njit(cache=True)(func)
     except RuntimeError:                     # numba: "cannot cache function ...: no locator"
         return numba.njit(func)
+
+
+#: ``with quiet_overflow():`` around a compiled step whose overflow the caller refuses: compiled
+#: code overflows silently, its Python (``NUMBA_DISABLE_JIT=1``) runs numpy, which would warn.
+quiet_overflow = (nullcontext if not numba.config.DISABLE_JIT
+                  else partial(np.errstate, all="ignore"))

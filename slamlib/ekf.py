@@ -24,8 +24,7 @@ checked once, in ``predict`` and ``update``; a step whose result is not finite
 changes nothing, and the filter raises a ValueError (:func:`predict` returns False:
 compiled code cannot format the message). The models live in :mod:`slamlib.models`.
 The steps marked ``@compiled`` are these same functions compiled by numba
-(:mod:`slamlib.compiled`; they take float arrays; why these and not the others:
-``bench/README.md``).
+(:mod:`slamlib.compiled`; they take float arrays; how and why: ``bench/README.md``).
 """
 
 from __future__ import annotations
@@ -36,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour
-from .compiled import compiled
+from .compiled import compiled, quiet_overflow
 from .metrics import chi2_quantile
 from .models import (
     KOBUKI_WHEEL_BASE,
@@ -113,8 +112,7 @@ def innovation(z: np.ndarray, h: np.ndarray) -> np.ndarray:
 
 @compiled
 def block_diagonal(blocks: np.ndarray) -> np.ndarray:
-    """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2): :func:`diagonal_blocks`'s
-    inverse."""
+    """The (2m, 2m) block-diagonal matrix of m 2x2 blocks (m, 2, 2) (:func:`diagonal_blocks`)."""
     m = blocks.shape[0]
     out = np.zeros((2 * m, 2 * m))
     for j in range(m):
@@ -206,29 +204,27 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
     ``x``, ``P`` the prior (n,), (n, n), ``x[2]`` the heading; ``PHt``, ``S`` from
     :func:`innovation_covariance`; ``y`` (2m,) the innovations, stacked. With
     ``S = L L'`` (Cholesky) and ``W = L^-1 H P`` the gain is ``K = W' L^-1``, so
-    ``K y = W' L^-1 y`` and ``K S K' = W' W``: P loses a rank-2m term, subtracted in
-    blocks of rows, one read and one write of each entry, O(n^2 m) (the Joseph form
-    ``(I - K H) P (I - K H)' + K R K'`` at the optimal gain). Returns the joint NIS
-    ``y' S^-1 y`` (2m degrees of freedom). An S that is not positive definite
-    (LinAlgError) or a result that is not finite (ValueError) changes nothing. Compiled by
-    numba.
+    ``K y = W' L^-1 y`` and ``K S K' = W' W``: P loses a rank-2m term, O(n^2 m) (in exact
+    arithmetic the Joseph form ``(I - K H) P (I - K H)' + K R K'`` at the optimal gain).
+    Returns the joint NIS ``y' S^-1 y`` (2m degrees of freedom). An S that is not positive
+    definite (LinAlgError) or a result that is not finite (ValueError) changes nothing.
     """
     n, m2 = P.shape[0], y.shape[0]
     L = np.linalg.cholesky(S)                               # S = L L'
-    HPy = np.empty((m2, n + 1))                             # [H P, y]
-    HPy[:, :n], HPy[:, n] = PHt.T, y
-    Wv = np.linalg.solve(L, HPy)                            # L^-1 [H P, y]
+    HP_y = np.empty((m2, n + 1))                            # [H P, y]
+    HP_y[:, :n], HP_y[:, n] = PHt.T, y
+    Wv = np.linalg.solve(L, HP_y)                           # L^-1 [H P, y] (by LU, to rounding)
     W, v = Wv[:, :n], Wv[:, n]                              # K = P H' S^-1 = W' L^-1
-    if not math.isfinite(np.sum(Wv * Wv)):                  # (then K y and K S K' are finite)
-        raise ValueError("z: the step's result is not finite (the readings move the state "
-                         "by a non-finite amount); nothing was changed")
+    if not math.isfinite(np.sum(Wv * Wv)):                  # (|K y|, |K S K'| <= sum of Wv^2)
+        raise ValueError("z: these readings give a non-finite update (L^-1 [H P, y] "
+                         "overflows); nothing was changed")
     x += W.T @ v                                            # x = x + K y = x + W' L^-1 y
     x[2] = _wrap(x[2])                                      # (the heading back to [-pi, pi))
     if n <= _ONE_BLOCK:                                     # P = P - K S K' = P - W' W
-        KSKt = W.T @ W
-        P -= (KSKt + KSKt.T) / 2                            # (symmetric to the last bit)
-    else:                                                   # (a few rows per product)
-        rows = max(1, _PRODUCT // (n * m2))
+        WtW = W.T @ W                                       # (numba's product rounds its two
+        P -= (WtW + WtW.T) / 2                              #  triangles apart: symmetrised)
+    else:                                                   # (a few rows per product; P is
+        rows = max(1, _PRODUCT // (n * m2))                 #  symmetric to rounding only)
         for i in range(0, n, rows):
             P[i:i + rows] -= W[:, i:i + rows].T @ W
     return v @ v                                            # NIS = y' S^-1 y
@@ -522,8 +518,10 @@ class EKFLocalization:
         u, dt = _check_control(u, dt)
         Q = self._Q if Q is None else as_covariance("Q", Q, 2)
         A, W = self.jacobians("motion", u=u, dt=dt)
-        n = self._n                                # (compiled, an overflow makes no warning)
-        if not predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, Q, A, W):
+        n = self._n
+        with quiet_overflow():                     # an overflow is refused, without a warning
+            finite = predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, Q, A, W)
+        if not finite:
             raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
 
     # ------------------------------------------------------------------ update
@@ -587,19 +585,22 @@ class EKFLocalization:
 
         Returns the report's fields and what :meth:`_fuse` fuses (or None)."""
         k, id_list = ids.shape[0], ids.tolist()
-        status, seen, g, slots = [""] * k, set(), [], []
+        status, seen, gated, slots = [""] * k, set(), [], []
         for i, (mid, s) in enumerate(zip(id_list, self._slots(id_list))):   # association by id
-            if s is not None:
-                g.append(i)
+            if s is not None:                                   # a mapped landmark: gated
+                gated.append(i)
                 slots.append(s)
+            elif not self._can_add:
+                status[i] = "unknown"
+            elif mid in seen:
+                status[i] = "duplicate"
             else:
-                status[i] = ("unknown" if not self._can_add else
-                             "duplicate" if mid in seen else "new")
+                status[i] = "new"
                 seen.add(mid)
-        if not g:
+        if not gated:
             return _fields(ids, z, status, self._gate, self._threshold), None
-        if len(g) < k:                                          # some readings are not gated
-            g = np.array(g, dtype=np.int64)
+        if len(gated) < k:                                      # some readings are not gated
+            g = np.array(gated, dtype=np.int64)
             ids_g, z_g, R_g = ids[g], z[g], R[g]
         else:                                                   # (the usual frame: all are)
             g, ids_g, z_g, R_g = np.arange(k), ids, z, R
@@ -620,7 +621,7 @@ class EKFLocalization:
         for i, a in zip(g.tolist(), accepted):
             status[i] = "accepted" if a else "rejected"
         fields = _fields(ids, z, status, self._gate, self._threshold, g, d2, y, h, S_i, acc)
-        return fields, (PHt, S, y, acc) if True in accepted else None
+        return fields, ((PHt, S, y, acc) if any(accepted) else None)
 
     def _fuse(self, PHt: np.ndarray, S: np.ndarray, y: np.ndarray, acc: np.ndarray) -> float:
         """The accepted readings' rows and columns of ``P H'``, ``S`` and ``y``, jointly fused."""

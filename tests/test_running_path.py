@@ -27,7 +27,7 @@ PRINTED = {
            ekf.joint_update],
     "04": [models.inverse_observe, models.inverse_observation_jacobians, ekf.augment,
            ekf.landmark_covariance, ekf.predict],
-    "05": [ekf.EKFSLAM.predict, ekf.EKFSLAM._update_ids, ekf.EKFSLAM._gate_ids,
+    "05": [ekf.EKFSLAM.predict, ekf.EKFSLAM._update_ids, ekf.EKFSLAM._gate_ids, ekf.EKFSLAM._fuse,
            ConfirmedSLAM.update, ConfirmedSLAM._admit],
     "06": [ekf.LinearisedEKFSLAM.jacobians, ekf.LinearisedEKFSLAM._observation],
     "09": [association.jcbb, association.solve_lower, association.nearest_neighbour],

@@ -96,12 +96,37 @@ def test_the_python_of_the_compiled_loop_gives_the_same_run_and_decisions(compil
     np.testing.assert_allclose(plain["x"], compiled_result["x"], rtol=1e-9, atol=1e-12)
 
 
+_OVERFLOW = """
+import warnings, numpy as np
+from slamlib.ekf import EKFSLAM
+warnings.simplefilter("error")                       # any warning fails
+f = EKFSLAM(np.zeros(3), np.eye(3), np.eye(2), np.eye(2))
+try:
+    f.predict(np.array([1e200, 1e200]), 1e200)
+except ValueError as exc:
+    print("refused:", exc)
+"""
+
+
+@pytest.mark.parametrize("jit", ["0", "1"])
+def test_an_overflowing_prediction_is_refused_without_a_warning_compiled_or_not(jit):
+    """numba's compiled predict overflows silently; run as Python (NUMBA_DISABLE_JIT=1) it is
+    numpy, which would warn: ``quiet_overflow`` silences it there."""
+    env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
+    env["NUMBA_DISABLE_JIT"] = jit
+    out = subprocess.run([sys.executable, "-c", _OVERFLOW], env=env, capture_output=True,
+                         text=True, timeout=600)
+    assert out.returncode == 0, out.stderr[-2000:]
+    assert out.stdout.startswith("refused: u, dt: the step's result is not finite"), out.stdout
+
+
 @pytest.mark.parametrize("n_landmarks", [10, 30])
 def test_compiled_ekf_steps_give_numpys_numbers(n_landmarks):
     """Each compiled step returns, to the last bit, what its Python (``py_func``, numpy)
-    returns, on P stored inside larger storage as the filters keep it: the ground on which
-    the stored studies were not regenerated when the steps were compiled (bench/README.md).
-    numba calls scipy's BLAS build and numpy its own: they agree here, at the course's sizes."""
+    returns, on P stored inside larger storage as the filters keep it; the joint update to
+    rounding (numba's Cholesky sums in another order; the stored studies were regenerated
+    with it, bench/README.md). numba calls scipy's BLAS build and numpy its own: they agree
+    here, at the course's sizes."""
     rng = np.random.default_rng(n_landmarks)
     n = 3 + 2 * n_landmarks
     for _ in range(20):
