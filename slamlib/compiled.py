@@ -14,15 +14,14 @@ from __future__ import annotations
 
 import re
 import warnings
-from contextlib import nullcontext
-from functools import partial
+from functools import wraps
 from pathlib import Path
 
 import numba
 import numpy as np
 from numba.core.errors import NumbaPerformanceWarning
 
-__all__ = ["compiled", "quiet_overflow"]
+__all__ = ["compiled"]
 
 # numba notes, once per compilation, that ``A @ P[r, m]`` on a block of P (not contiguous)
 # copies the block first: that is the block product the chapters write. numba gives the
@@ -32,14 +31,18 @@ warnings.filterwarnings("ignore", category=NumbaPerformanceWarning,
 
 
 def compiled(func):
-    """``func`` compiled by numba (``numba.njit``), cached where it can be."""
+    """``func`` compiled by numba (``numba.njit``), cached where it can be. With
+    ``NUMBA_DISABLE_JIT=1``, ``func`` itself with numpy's floating-point warnings off, as
+    compiled code has none (an overflow the caller refuses is refused without a warning)."""
+    if numba.config.DISABLE_JIT:
+        @wraps(func)
+        def as_python(*args):
+            with np.errstate(all="ignore"):
+                return func(*args)
+        as_python.py_func = func
+        return as_python
     try:
         return numba.njit(cache=True)(func)
     except RuntimeError:                     # numba: "cannot cache function ...: no locator"
         return numba.njit(func)
 
-
-#: ``with quiet_overflow():`` around a compiled step whose overflow the caller refuses: compiled
-#: code overflows silently, its Python (``NUMBA_DISABLE_JIT=1``) runs numpy, which would warn.
-quiet_overflow = (nullcontext if not numba.config.DISABLE_JIT
-                  else partial(np.errstate, all="ignore"))

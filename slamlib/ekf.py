@@ -35,7 +35,7 @@ from dataclasses import dataclass
 import numpy as np
 
 from .association import DEFAULT_MAX_NODES, individual_d2, jcbb, nearest_neighbour
-from .compiled import compiled, quiet_overflow
+from .compiled import compiled
 from .metrics import chi2_quantile
 from .models import (
     KOBUKI_WHEEL_BASE,
@@ -519,10 +519,8 @@ class EKFLocalization:
         Q = self._Q if Q is None else as_covariance("Q", Q, 2)
         A, W = self.jacobians("motion", u=u, dt=dt)
         n = self._n
-        with quiet_overflow():                     # an overflow is refused, without a warning
-            finite = predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, Q, A, W)
-        if not finite:
-            raise _not_finite("u, dt", f"u = {u}, dt = {dt}")
+        if not predict(self._x[:n], self._P[:n, :n], u, dt, self._wheel_base, Q, A, W):
+            raise _not_finite("u, dt", f"u = {u}, dt = {dt}")   # (an overflow: nothing changed)
 
     # ------------------------------------------------------------------ update
     def update(self, ids, z, R=None) -> UpdateReport:
@@ -557,11 +555,11 @@ class EKFLocalization:
         z = as_readings(z, k)
         R = as_reading_covariances(R, self._R, k)
         fields, fused = self._gate_ids(ids, z, R)
-        new = np.flatnonzero(fields["new"])
-        undo = self._save(fused is not None and new.size > 0)
+        new = [i for i, s in enumerate(fields["status"]) if s == "new"]
+        undo = self._save(fused is not None and len(new) > 0)
         try:
             nis = float("nan") if fused is None else self._fuse(*fused)
-            if new.size:                                    # ids never seen before
+            if new:                                         # ids never seen before
                 for i, (status, _) in zip(new, self._admit(ids[new], z[new], R[new])):
                     fields["status"][i] = status
                 fields["new"] = np.array([s == "new" for s in fields["status"]], dtype=bool)

@@ -111,7 +111,7 @@ except ValueError as exc:
 @pytest.mark.parametrize("jit", ["0", "1"])
 def test_an_overflowing_prediction_is_refused_without_a_warning_compiled_or_not(jit):
     """numba's compiled predict overflows silently; run as Python (NUMBA_DISABLE_JIT=1) it is
-    numpy, which would warn: ``quiet_overflow`` silences it there."""
+    numpy, which would warn: ``compiled`` runs it with numpy's warnings off there."""
     env = {k: v for k, v in os.environ.items() if k != "NUMBA_DISABLE_JIT"}
     env["NUMBA_DISABLE_JIT"] = jit
     out = subprocess.run([sys.executable, "-c", _OVERFLOW], env=env, capture_output=True,
