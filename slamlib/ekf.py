@@ -213,12 +213,12 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
     L = np.linalg.cholesky(S)                               # S = L L'
     HP_y = np.empty((m2, n + 1))                            # [H P, y]
     HP_y[:, :n], HP_y[:, n] = PHt.T, y
-    Wv = np.linalg.solve(L, HP_y)                           # L^-1 [H P, y] (by LU, to rounding)
-    W, v = Wv[:, :n], Wv[:, n]                              # K = P H' S^-1 = W' L^-1
-    if not math.isfinite(np.sum(Wv * Wv)):                  # (|K y|, |K S K'| <= sum of Wv^2)
+    Wv = np.linalg.solve(L, HP_y)                           # L^-1 [H P, y] (a general solver)
+    W, v = Wv[:, :n], Wv[:, n]                              # W = L^-1 H P, v = L^-1 y
+    if not math.isfinite(np.sum(Wv * Wv)):                  # (overflow: stop before x, P change)
         raise ValueError("z: these readings give a non-finite update (L^-1 [H P, y] "
                          "overflows); nothing was changed")
-    x += W.T @ v                                            # x = x + K y = x + W' L^-1 y
+    x += W.T @ v                                            # x = x + K y = x + W' v
     x[2] = _wrap(x[2])                                      # (the heading back to [-pi, pi))
     if n <= _ONE_BLOCK:                                     # P = P - K S K' = P - W' W
         WtW = W.T @ W                                       # (numba's product rounds its two
