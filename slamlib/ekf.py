@@ -225,8 +225,10 @@ def joint_update(x: np.ndarray, P: np.ndarray, PHt: np.ndarray, S: np.ndarray,
         P -= (WtW + WtW.T) / 2                              #  triangles apart: symmetrised)
     else:                                                   # (a few rows per product; P is
         rows = max(1, _PRODUCT // (n * m2))                 #  symmetric to rounding only)
+        Wc = np.ascontiguousarray(W)                        # (copied once, not per product)
         for i in range(0, n, rows):
-            P[i:i + rows] -= W[:, i:i + rows].T @ W
+            P_i = P[i:i + rows]                             # (numba subtracts fastest with
+            np.subtract(P_i, Wc[:, i:i + rows].T @ Wc, P_i)  # out=: P_i = P_i - W_i' W)
     return v @ v                                            # NIS = y' S^-1 y
 
 
