@@ -45,4 +45,3 @@ def compiled(func):
         return numba.njit(cache=True)(func)
     except RuntimeError:                     # numba: "cannot cache function ...: no locator"
         return numba.njit(func)
-

@@ -461,11 +461,10 @@ class EKFLocalization:
 
     def _positions(self, ids) -> np.ndarray:
         """The landmarks' positions (k, 2): the known map's, or the state's."""
-        ids = np.asarray(ids).tolist()
         if not self._can_add:
-            return np.array([self._map[i] for i in ids]).reshape(-1, 2)
-        x = self._x
-        return np.array([(x[s], x[s + 1]) for s in [self._slot[i] for i in ids]]).reshape(-1, 2)
+            return np.array([self._map[int(i)] for i in ids]).reshape(-1, 2)
+        s = np.array([self._slot[int(i)] for i in ids], dtype=np.int64)
+        return self._x[s[:, None] + (0, 1)]                 # rows x_F = x[(s, s + 1)]
 
     # ------------------------------------------------------------------ the hooks
     def reading_model(self, pose: np.ndarray, positions: np.ndarray

@@ -683,11 +683,15 @@ def information_matrix(trace: GraphTrace) -> tuple[np.ndarray, list[str]]:
 def variable_ordering(trace: GraphTrace) -> gtsam.Ordering:
     """The variables of ``trace``'s graph: the poses in time order, then the landmarks
     in the order first read (the columns of :func:`information_matrix`)."""
+    return _ordering([pose_key(i) for i in range(trace.problem.n_poses)]
+                     + [landmark_key(m) for m in trace.landmark_ids])
+
+
+def _ordering(keys) -> gtsam.Ordering:
+    """A gtsam.Ordering of ``keys``, in the order given."""
     ordering = gtsam.Ordering()
-    for i in range(trace.problem.n_poses):
-        ordering.push_back(pose_key(i))
-    for m in trace.landmark_ids:
-        ordering.push_back(landmark_key(m))
+    for k in keys:
+        ordering.push_back(k)
     return ordering
 
 
@@ -741,9 +745,7 @@ def unobservable_directions(factors, points, ordering, *, rtol: float = 1e-10,
         keys = [ordering.at(i) for i in range(ordering.size())]
     else:
         keys = [int(k) for k in ordering]
-        ordering = gtsam.Ordering()
-        for k in keys:
-            ordering.push_back(k)
+        ordering = _ordering(keys)
     touched = {k for fac in factors for k in fac.keys()}
     if len(set(keys)) != len(keys) or set(keys) != touched:
         raise ValueError("ordering: expected each key the factors touch exactly once; "
