@@ -63,7 +63,8 @@ run = sim.scenario("arena_loop", seed=3)
 tr = runner.slam(run)
 print(json.dumps({"ids": run.camera.id.tolist(), "truth": run.truth[-1].tolist(),
                   "ticks": run.ticks_R[-5:].tolist(), "status": tr.counts(),
-                  "landmarks": tr.filter.landmark_ids, "x": tr.filter.x.tolist()}))
+                  "landmarks": tr.filter.landmark_ids, "x": tr.filter.x.tolist(),
+                  "decisions": [list(rep.status) for _, rep in tr.reports]}))
 """
 
 
@@ -88,7 +89,7 @@ def test_the_python_of_the_compiled_loop_gives_the_same_run_and_decisions(compil
     """NUMBA_DISABLE_JIT=1 runs the same functions as Python: the same readings, the same
     filter decisions, the same numbers to rounding."""
     plain = _run_in({"NUMBA_DISABLE_JIT": "1"})
-    for key in ("ids", "ticks", "status", "landmarks"):
+    for key in ("ids", "ticks", "status", "landmarks", "decisions"):    # every reading's fate
         assert plain[key] == compiled_result[key], key
     np.testing.assert_allclose(plain["truth"], compiled_result["truth"], rtol=0, atol=1e-12)
     # the estimates to rounding: the joint update's Cholesky factors differ in the last bit
